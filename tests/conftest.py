@@ -1,0 +1,43 @@
+"""Shared fixtures: the paper's example model and inputs."""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from pysim.model import HysteresisModel, eq13_thresholds  # noqa: E402
+
+
+def paper_model(a1=-0.8, n=10, operator="osp", voltage_range=(0.0, 1.0)):
+    """The paper's normalised simulation example (Fig. 5/6): p(r) = 5 exp(-0.505 (r-1)^2)."""
+    r = eq13_thresholds(n, 1.0, operator)
+    b = 5.0 * np.exp(-0.505 * (r - 1.0) ** 2) * (r[1] - r[0])
+    return HysteresisModel(a1, 2.42, tuple(r), tuple(b), operator=operator, voltage_range_V=voltage_range,
+                           name="paper")
+
+
+def paper_input(n_samples=20001, t_end=20.0):
+    """v(t) = 0.5 + 0.5 sin(3t)/(1+t) of the paper's Fig. 5/6."""
+    t = np.linspace(0.0, t_end, n_samples)
+    return 0.5 + 0.5 * np.sin(3 * t) / (1 + t)
+
+
+def random_piecewise_monotone(rng, n_segments=40, lo=0.0, hi=1.0, points_per_segment=(2, 60)):
+    """Random extrema joined by monotone ramps of random length (and random speed)."""
+    extrema = rng.uniform(lo, hi, n_segments)
+    extrema[0] = lo
+    pieces = []
+    for a, b in zip(extrema[:-1], extrema[1:]):
+        k = rng.integers(*points_per_segment)
+        s = np.sort(rng.uniform(0, 1, k))
+        pieces.append(a + (b - a) * s)
+    return np.concatenate(pieces)
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(20141)
