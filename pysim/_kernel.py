@@ -1,4 +1,5 @@
-"""Loads the C hysteresis kernel (``fmu_src/hysteresis.c``) for the host.
+"""Loads the C hysteresis kernel (``fmu_src/hysteresis.c``, with the output
+stages of extended models, ``fmu_src/output_stages.c``) for the host.
 
 The play-operator recursion, the forward model and the exact inverse exist once,
 in C; the FMUs compile that file and so does this module, so the Python model and
@@ -23,7 +24,8 @@ import numpy as np
 
 from fmu_src import SOURCE_DIR
 
-_SOURCES = ("hysteresis.c", "hysteresis.h")
+_SOURCES = ("hysteresis.c", "hysteresis.h", "output_stages.c", "output_stages.h")
+_C_FILES = tuple(name for name in _SOURCES if name.endswith(".c"))
 _lock = threading.Lock()
 _library = None
 
@@ -76,7 +78,7 @@ def _build(target: Path, compiler: list[str]) -> None:
         out = Path(tmp) / target.name
         cmd = compiler + [
             "-shared", "-fPIC", "-O2", "-std=c99", "-ffp-contract=off", "-fvisibility=hidden",
-            f"-DHYST_API={export}", str(SOURCE_DIR / "hysteresis.c"), "-o", str(out),
+            f"-DHYST_API={export}", *(str(SOURCE_DIR / name) for name in _C_FILES), "-o", str(out),
         ]
         result = subprocess.run(cmd, capture_output=True, text=True)
         if result.returncode != 0:

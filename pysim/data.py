@@ -147,7 +147,7 @@ def require_samples(data: MeasuredData, n_needed: int, what: str) -> None:
         ``"<file>: N samples, need at least M for <what>"``.
     """
     if len(data) < n_needed:
-        raise DataError(f"{data.source}: {len(data)} samples, need at least {n_needed} for {what}")
+        raise DataError(f"{data.source or 'data'}: {len(data)} samples, need at least {n_needed} for {what}")
 
 
 def save_measured(data: MeasuredData, path) -> Path:
@@ -259,13 +259,16 @@ def load_measured(path, *, time_column=None, voltage_column=None, displacement_c
     sep = _resolve_delimiter(name, delimiter, lines[first])
     cells = _split(lines[first], sep)
     if len(cells) < 2:
-        raise DataError(_one_column_message(name, first + 1, lines[first], sep))
+        raise DataError(_one_column_message(name, first + 1, lines[first], sep, detected=delimiter is None))
 
     specs = {"time_s": time_column, "voltage_V": voltage_column, "displacement_um": displacement_column}
     if header:
         names = [_unquote(cell) for cell in cells]
         _reject_numeric_header(name, first + 1, names)
-        columns = _columns_from_header(name, first + 1, names, specs, rate)
+        try:
+            columns = _columns_from_header(name, first + 1, names, specs, rate)
+        except DataError as exc:
+            raise DataError(f"{exc}{_header_further_down(lines, first, specs, rate)}") from None
         data_start = first + 1
     else:
         names = None
@@ -394,10 +397,10 @@ class _Reader:
                 index = self.columns["time_s"]
                 previous = self.line_of(k)
                 if steps[k] == 0:
-                    raise DataError(f"{self.where(k + 1, index)}: duplicate timestamp {time[k + 1]!r} s "
+                    raise DataError(f"{self.where(k + 1, index)}: duplicate timestamp {float(time[k + 1])!r} s "
                                     f"(same as line {previous}); time must strictly increase")
-                raise DataError(f"{self.where(k + 1, index)}: time {time[k + 1]!r} s is not after "
-                                f"{time[k]!r} s on line {previous}; time must strictly increase")
+                raise DataError(f"{self.where(k + 1, index)}: time {float(time[k + 1])!r} s is not after "
+                                f"{float(time[k])!r} s on line {previous}; time must strictly increase")
         return MeasuredData(time, column["voltage_V"], column["displacement_um"], source=self.name,
                             sample_rate_hz=rate)
 
@@ -484,8 +487,9 @@ def _other_delimiters(line: str, sep) -> list:
     return [d for d in seen if d not in own]
 
 
-def _one_column_message(name, line_no, line, sep) -> str:
-    head = f"{name}: line {line_no}: only one column found with delimiter {_delimiter_name(sep)}"
+def _one_column_message(name, line_no, line, sep, detected) -> str:
+    how = "detected" if detected else "given"
+    head = f"{name}: line {line_no}: only one column found (delimiter {_delimiter_name(sep)}, {how})"
     seen = _other_delimiters(line, sep)
     if seen:
         other = seen[0]
@@ -498,6 +502,8 @@ def _one_column_message(name, line_no, line, sep) -> str:
 def _split(line: str, sep) -> list:
     if sep is _WHITESPACE:
         return line.split()
+    if '"' not in line:
+        return line.split(sep)
     return next(csv.reader([line], delimiter=sep, skipinitialspace=True), [])
 
 
@@ -592,10 +598,20 @@ def _missing_message(name, line_no, names, missing, rate) -> str:
         parts.append(text)
     noun = "column" if len(parts) == 1 else "columns"
     found = ", ".join(f"{cell!r} ({i + 1})" for i, cell in enumerate(names))
-    message = f"{name}: line {line_no}: required {noun} {', '.join(parts)} not in the header; found {found}"
+    message = f"{name}: line {line_no}: the header has no {noun} {', '.join(parts)}; columns found: {found}"
     if any(role == "time_s" for role, _ in missing) and rate is None:
         message += "; without a time column give the sample rate"
     return message
+
+
+def _header_further_down(lines, first, specs, rate) -> str:
+    """A hint when a preamble sits above the real header: where the header is."""
+    wanted = [spec if isinstance(spec, str) else role for role, spec in specs.items()
+              if _as_number(spec) is None and not (role == "time_s" and spec is None and rate is not None)]
+    for i in range(first + 1, min(len(lines), first + 100)):
+        if all(word in lines[i] for word in wanted):
+            return f"; the header seems to be line {i + 1}: skip {i} lines (skip_rows={i})"
+    return ""
 
 
 def _close_match(wanted: str, names) -> int | None:

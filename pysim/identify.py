@@ -193,7 +193,7 @@ def solve_lsi(A, y, G, h):
 def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = "mpi",
              operator: str = "osp", thresholds_V=None, warmup="auto", fit_slice: slice = None,
              min_slope_fraction: float = 0.01, extra_regressors: dict = None,
-             name: str = None, description: str = "") -> IdentificationResult:
+             column_transform=None, name: str = None, description: str = "") -> IdentificationResult:
     """Fit an MPI or CPI model to a measured record.
 
     Parameters
@@ -220,6 +220,12 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     extra_regressors : dict of name -> array, optional
         Further columns that enter linearly (e.g. creep modes); their fitted
         coefficients come back in ``extra_coefficients``.
+    column_transform : callable, optional
+        Linear map applied to every column of the hysteresis model's design
+        matrix (an (N, p) array in, the same shape out), for models whose output
+        passes through a linear stage (dynamics, delay); ``prediction_um`` is
+        then that model's output.  The invertibility constraints still apply
+        to the hysteresis parameters.
     name, description : str
         Stored in the model.
     """
@@ -239,6 +245,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
          else np.asarray(thresholds_V, dtype=float))
     cubic = model == "mpi"
     A, operator_columns = regressors(v, r, operator, input_offset, cubic)
+    if column_transform is not None:
+        A = np.asarray(column_transform(A), dtype=float)
     extras = dict(extra_regressors or {})
     for key, column in extras.items():
         column = np.asarray(column, dtype=float).ravel()

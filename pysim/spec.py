@@ -8,11 +8,10 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
-import os
 import sys
-import tempfile
 from pathlib import Path
 
+from pysim.fileio import atomic_write_text
 from pysim.model import HysteresisModel
 
 
@@ -87,14 +86,6 @@ def write_spec(model: HysteresisModel, path, header: str = "") -> Path:
     directory = path.parent if str(path.parent) else Path(".")
     if not directory.is_dir():
         raise SpecError(f"{path}: folder {directory} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".spec-", suffix=".py")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(source)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write_text(path, source)
     sys.modules.pop(path.stem, None)
     return path

@@ -88,7 +88,9 @@ def discretise(system, step_s: float, method: str = "tustin", prewarp_hz: float 
         raise ValueError(f"prewarp frequency {prewarp_hz} Hz must lie between 0 and the Nyquist "
                          f"frequency {0.5 / step_s} Hz")
     prewarp = None if prewarp_hz is None else 2.0 * math.pi * prewarp_hz
-    return control.sample_system(system, step_s, method=method, prewarp_frequency=prewarp)
+    # through state space: a transfer function would gain a cancelling
+    # pole-zero pair for a static gain under Tustin
+    return control.sample_system(control.ss(system), step_s, method=method, prewarp_frequency=prewarp)
 
 
 def slowest_time_constant_s(system) -> float:
@@ -108,14 +110,36 @@ def slowest_time_constant_s(system) -> float:
     return math.inf if slowest >= 0 else -1.0 / slowest
 
 
-def _sections(system) -> np.ndarray:
-    """Second-order sections of a discrete SISO system."""
+def _sections(system):
+    """Second-order sections and pure delay (samples) of a discrete SISO system.
+
+    Poles and zeros come from the state-space form (eigenvalues), which stays
+    accurate for poles crowded near z = 1 at fine steps, where the roots of
+    transfer-function coefficients would not.  scipy's digital zpk form pads
+    missing zeros at the origin, which would drop the delay of a strictly
+    proper system (ZOH gives one), so the delay is kept apart and applied as a
+    short delay line.
+    """
     ss = control.ss(system)
-    A, B, C, D = (np.asarray(x, dtype=float) for x in (ss.A, ss.B, ss.C, ss.D))
-    if A.size == 0:
-        return np.array([[float(D.item()), 0.0, 0.0, 1.0, 0.0, 0.0]])
-    z, p, k = scipy.signal.ss2zpk(A, B, C, D)
-    return scipy.signal.zpk2sos(z, p, k)
+    A = np.asarray(ss.A, dtype=float)
+    poles = np.linalg.eigvals(A) if A.size else np.zeros(0)
+    zeros = np.asarray(ss.zeros(), dtype=complex) if A.size else np.zeros(0)
+    zeros = zeros[np.isfinite(zeros)]
+    delay = poles.size - zeros.size
+    if delay < 0:
+        raise ValueError("the discrete stage is improper (more zeros than poles): it is not causal")
+    # gain of k prod(z - z_i) / prod(z - p_j), matched at a point away from both
+    candidates = np.array([2.0, -2.0, 2.0j, 1.5 + 1.5j, 3.0])
+    distance = [min(np.min(np.abs(c - poles), initial=np.inf), np.min(np.abs(c - zeros), initial=np.inf))
+                for c in candidates]
+    z0 = candidates[int(np.argmax(distance))]
+    value = complex(np.asarray(ss(z0)).squeeze())
+    gain = (value * np.prod(z0 - poles) / np.prod(z0 - zeros)).real
+    if gain == 0.0:
+        return np.array([[0.0, 0.0, 0.0, 1.0, 0.0, 0.0]]), 0
+    if poles.size == 0:
+        return np.array([[gain, 0.0, 0.0, 1.0, 0.0, 0.0]]), 0
+    return scipy.signal.zpk2sos(zeros, poles, gain), delay
 
 
 class DiscreteStage:
@@ -136,24 +160,34 @@ class DiscreteStage:
         self.continuous = None if system.dt else system
         self.system = discretise(system, step_s, method, prewarp_hz)
         self.step_s = float(step_s)
-        self.sos = _sections(self.system)
+        self.sos, self.delay = _sections(self.system)
         self.reset()
 
     def reset(self, initial_input: float | None = None):
         """Rest (zero state), or at equilibrium with a constant input
         ``initial_input`` (µm) held since forever."""
         if initial_input is None:
-            self.state = np.zeros((self.sos.shape[0], 2))
+            self._zi = np.zeros((self.sos.shape[0], 2))
+            self._line = np.zeros(self.delay)
             return
-        if np.any(np.isclose(np.abs(self.system.poles()), 1.0, rtol=0, atol=1e-12)):
+        if np.any(np.abs(np.asarray(self.system.poles()) - 1.0) < 1e-12):
             raise ValueError("the stage has a pole at z = 1 (no finite static gain): it has no "
                              "equilibrium for a constant input")
-        self.state = scipy.signal.sosfilt_zi(self.sos) * float(initial_input)
+        self._zi = scipy.signal.sosfilt_zi(self.sos) * float(initial_input)
+        self._line = np.full(self.delay, float(self.dc_gain() * initial_input))
+
+    def dc_gain(self) -> float:
+        """Static gain of the discrete system."""
+        return float(np.real(self.system(1.0)))
 
     def apply(self, signal) -> np.ndarray:
         """Filter a block of samples, continuing from the carried state."""
         u = np.asarray(signal, dtype=float).ravel()
-        y, self.state = scipy.signal.sosfilt(self.sos, u, zi=self.state)
+        y, self._zi = scipy.signal.sosfilt(self.sos, u, zi=self._zi)
+        if self.delay:
+            # y[n] = s[n - delay]; the line holds the last `delay` filter outputs
+            joined = np.concatenate((self._line, y))
+            y, self._line = joined[:u.size], joined[u.size:]
         return y
 
     def step(self, value: float) -> float:

@@ -1,0 +1,127 @@
+/*
+ * fmi2_layer.h -- the FMI 2.0 co-simulation layer shared by every model FMU.
+ *
+ * The layer (fmi2_layer.c) implements all fmi2* functions of the
+ * co-simulation interface: the standard's state machine with the calls it
+ * allows in each state, logging through the importer's logger, get/set of the
+ * variables with value-reference checks, FMU state snapshots and their
+ * checksummed serialisation.  A model (model.c in its own folder) supplies
+ * the numbers: what its variables are (the generated model_config.h), how its
+ * outputs follow from its inputs and memory, and which parameter sets are
+ * valid (the model_* hooks below).
+ *
+ * Memory model of a step: `memory` holds the committed model memory (the
+ * operator states).  model_update computes the outputs for the current inputs
+ * from `memory` and writes the memory the model would have after that input
+ * into `scratch` (tentative); fmi2DoStep commits it by swapping the two
+ * buffers.  No allocation and no copy on the per-step path.
+ *
+ * All sizes are compile-time constants from the model's headers, so one
+ * instance is a single block of memory and several instances share nothing.
+ */
+#ifndef PIEZO_FMI2_LAYER_H
+#define PIEZO_FMI2_LAYER_H
+
+#include <stddef.h>
+
+#include "fmi2Functions.h"
+#include "model.h"          /* per model: ModelData, MODEL_N_MEMORY */
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* States of the FMI 2.0 co-simulation state machine, as bits so that each
+ * function can be checked against the mask of states it is allowed in. */
+enum {
+    LAYER_INSTANTIATED = 1u << 0,
+    LAYER_INITIALIZATION_MODE = 1u << 1,
+    LAYER_STEP_COMPLETE = 1u << 2,
+    LAYER_STEP_IN_PROGRESS = 1u << 3,   /* never entered: doStep is synchronous */
+    LAYER_STEP_FAILED = 1u << 4,        /* never entered: doStep does not discard */
+    LAYER_STEP_CANCELED = 1u << 5,      /* never entered */
+    LAYER_TERMINATED = 1u << 6,
+    LAYER_ERROR = 1u << 7,
+    LAYER_FATAL = 1u << 8               /* never entered: no error is fatal */
+};
+
+/* Causality of a variable (tables in model_config.h). */
+enum { LAYER_INPUT = 0, LAYER_OUTPUT = 1, LAYER_PARAMETER = 2 };
+
+/* Log categories (the names listed in modelDescription.xml). */
+enum {
+    LAYER_LOG_EVENTS = 1u << 0,          /* "logEvents": state changes */
+    LAYER_LOG_WARNING = 1u << 1,         /* "logStatusWarning" */
+    LAYER_LOG_ERROR = 1u << 2,           /* "logStatusError" */
+    LAYER_LOG_ALL = (1u << 3) - 1u
+};
+
+/* Bits of Instance.stale. */
+enum { LAYER_STALE_OUTPUTS = 1, LAYER_STALE_PARAMETERS = 2 };
+
+#define LAYER_STORAGE(n) ((n) > 0 ? (n) : 1)   /* C has no empty arrays */
+
+typedef struct Instance {
+    unsigned int magic;              /* LAYER_INSTANCE_MAGIC while alive */
+    unsigned int state;              /* one LAYER_* state bit */
+    unsigned int stale;              /* LAYER_STALE_* bits */
+    unsigned int log_categories;     /* LAYER_LOG_* bits, used when logging_on */
+    int logging_on;
+    int stop_time_defined;
+    double time;                     /* communication point, s */
+    double start_time;               /* s */
+    double stop_time;                /* s */
+    double *memory;                  /* committed model memory */
+    double *scratch;                 /* tentative model memory */
+    double real[MODEL_N_REALS];      /* every Real variable, by value reference */
+    fmi2Boolean boolean[LAYER_STORAGE(MODEL_N_BOOLEANS)];
+    ModelData model;                 /* the model's derived quantities */
+    double memory_a[LAYER_STORAGE(MODEL_N_MEMORY)];
+    double memory_b[LAYER_STORAGE(MODEL_N_MEMORY)];
+    fmi2CallbackLogger logger;
+    fmi2CallbackAllocateMemory allocate_memory;
+    fmi2CallbackFreeMemory free_memory;
+    fmi2ComponentEnvironment environment;
+    char *instance_name;
+} Instance;
+
+/* Logging for models and layer.  Messages with status fmi2Error or worse
+ * always reach the logger; others only when logging is on for category. */
+#if defined(__GNUC__) || defined(__clang__)
+#define LAYER_PRINTF(fmt, args) __attribute__((format(printf, fmt, args)))
+#else
+#define LAYER_PRINTF(fmt, args)
+#endif
+void layer_log(const Instance *inst, fmi2Status status, unsigned int category,
+               const char *format, ...) LAYER_PRINTF(4, 5);
+
+/* Name of the Real variable with value reference vr (for messages). */
+const char *layer_real_name(fmi2ValueReference vr);
+
+/* ------------------------------------------------------------------------
+ * Hooks every model implements (model.c).
+ * ---------------------------------------------------------------------- */
+
+/* Sets the model's memory (inst->memory, MODEL_N_MEMORY values) to its
+ * initial value; called at instantiation and reset. */
+void model_reset(Instance *inst);
+
+/* Checks the parameters in inst->real / inst->boolean and derives what the
+ * model needs from them.  Logs the first problem and returns fmi2Error for an
+ * invalid set; fmi2Warning when it had to adjust an input. */
+fmi2Status model_prepare(Instance *inst);
+
+/* Accepts a new finite value of the input with value reference vr; may
+ * adjust it (and return fmi2Warning with a log line). */
+fmi2Status model_accept_input(Instance *inst, fmi2ValueReference vr, double *value);
+
+/* Computes every output in inst->real for the current inputs from the
+ * committed memory, and writes the memory after these inputs into
+ * inst->scratch (all MODEL_N_MEMORY values). */
+fmi2Status model_update(Instance *inst);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* PIEZO_FMI2_LAYER_H */

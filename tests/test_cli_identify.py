@@ -1,0 +1,91 @@
+"""`pysim identify` end to end: table, JSON, spec round trip, bad input."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pysim.cli import main
+from pysim.data import load_measured, shipped_dataset
+from pysim.identify import identify
+from pysim.spec import load_spec
+
+ROOT = Path(__file__).resolve().parents[1]
+BAD = sorted((ROOT / "tests" / "fixtures" / "bad").iterdir())
+DATASETS = ["smart_hysteresis", "discrete_backlash"]
+
+
+@pytest.mark.parametrize("name", DATASETS)
+def test_identify_writes_a_spec_that_reproduces_the_fit(tmp_path, capsys, name):
+    data_file = shipped_dataset(name)
+    spec = tmp_path / f"{name}_mpi.py"
+    assert main(["identify", str(data_file), "--out", str(spec), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert set(report) >= {"model", "parameters", "max_error_pct", "rms_error_pct", "mean_error_pct"}
+    model = load_spec(spec)
+    assert model.name == f"{name}_mpi"
+    assert model.check_invertibility().invertible
+    data = load_measured(data_file)
+    prediction = model.simulate(data.voltage_V)
+    fit = slice(report["warmup_samples"], None)
+    error = np.abs(prediction[fit] - data.displacement_um[fit])
+    span = np.ptp(data.displacement_um[fit])
+    assert 100 * error.max() / span == pytest.approx(report["max_error_pct"], rel=1e-9)
+    assert 100 * np.sqrt(np.mean(error**2)) / span == pytest.approx(report["rms_error_pct"], rel=1e-9)
+    # the CPI fit printed beside it is the a1 = 0 fit of the same data
+    cpi = identify(data.voltage_V, data.displacement_um, model="cpi")
+    assert report["comparison"]["cpi"]["rms_error_pct"] == pytest.approx(cpi.errors["rms_error_pct"])
+    assert report["comparison"]["cpi"]["rms_error_pct"] >= report["rms_error_pct"] - 1e-12
+
+
+def test_identify_table_and_other_layouts(tmp_path):
+    raw = ROOT.parent / "shared" / "data" / "discrete_backlash" / "Model_Vi_Do.dat"
+    result = subprocess.run(
+        [sys.executable, "-m", "pysim.cli", "identify", str(raw), "--no-header", "--voltage-column", "1",
+         "--displacement-column", "5", "--sample-rate", "200", "--model", "cpi", "--operators", "6"],
+        capture_output=True, text=True, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "CPI" in result.stdout and "MPI" in result.stdout and "invertible" in result.stdout
+    assert len([line for line in result.stdout.splitlines() if line.strip().startswith(("1 ", "6 "))]) >= 2
+
+
+@pytest.mark.parametrize("bad", BAD, ids=[p.name for p in BAD])
+def test_bad_files_exit_2_with_one_line_and_write_nothing(tmp_path, bad):
+    spec = tmp_path / "out.py"
+    result = subprocess.run([sys.executable, "-m", "pysim.cli", "identify", str(bad), "--out", str(spec)],
+                            capture_output=True, text=True)
+    assert result.returncode == 2
+    message = result.stderr.strip()
+    assert len(message.splitlines()) == 1, message
+    assert bad.name in message
+    assert "Traceback" not in result.stderr
+    assert not spec.exists()
+    assert os.listdir(tmp_path) == []
+
+
+def test_missing_file_and_bad_options(tmp_path, capsys):
+    assert main(["identify", str(tmp_path / "nope.csv")]) == 2
+    assert "nope.csv" in capsys.readouterr().err
+    good = shipped_dataset("discrete_backlash")
+    assert main(["identify", str(good), "--operators", "0"]) == 2
+    assert "--operators" in capsys.readouterr().err
+    assert main(["identify", str(good), "--out", str(tmp_path / "no" / "dir" / "x.py")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main(["identify", str(good), "--out", str(tmp_path / "1bad-name.py")]) == 2
+    assert "identifier" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_too_few_samples_for_the_parameters(tmp_path, capsys):
+    short = tmp_path / "short.csv"
+    t = np.arange(8) / 100
+    v = np.array([0, 1, 2, 3, 2, 1, 0, 1.5])
+    np.savetxt(short, np.column_stack([t, v, 0.5 * v]), delimiter=",", header="time_s,voltage_V,displacement_um",
+               comments="")
+    assert main(["identify", str(short), "--out", str(tmp_path / "m.py")]) == 2
+    err = capsys.readouterr().err
+    assert "short.csv" in err and "parameters" in err
+    assert not (tmp_path / "m.py").exists()
