@@ -14,7 +14,18 @@
 #pragma fp_contract(off)
 #endif
 
-/* only the fmi2* functions (declared with default visibility) are exported */
+/* The library headers come first: they must keep their default visibility. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+
+/* Only the fmi2* functions, declared with default visibility by
+ * fmi2Functions.h, are exported; everything below is internal. */
 #if defined(__GNUC__) && !defined(_WIN32)
 #pragma GCC visibility push(hidden)
 #endif

@@ -143,9 +143,16 @@ class FMUUnit:
         self._initialise()
 
     def range(self):
-        """(min, max) declared for the input variable, None where not declared."""
-        lo, hi = self.input.min, self.input.max
-        return (None if lo is None else float(lo), None if hi is None else float(hi))
+        """(min, max) of the input: the variable's declared min/max, else the
+        start values of parameters ``voltage_min``/``voltage_max`` (the plant
+        FMUs of this project); None where neither is given."""
+        starts = {v.name: v.start for v in self.model_description.modelVariables
+                  if v.causality == "parameter" and v.type == "Real"}
+        out = []
+        for declared, parameter in ((self.input.min, "voltage_min"), (self.input.max, "voltage_max")):
+            value = declared if declared is not None else starts.get(parameter)
+            out.append(None if value is None else float(value))
+        return tuple(out)
 
     def close(self):
         """Terminate and free the instance, unload the library, remove the files."""

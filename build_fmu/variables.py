@@ -1,0 +1,110 @@
+"""The FMI variables of the plant and inverse FMUs.
+
+This list is the single description of each FMU's interface: the model
+description (XML) and the C configuration header are both generated from it,
+so value references, names, causalities and start values cannot disagree.
+
+Value references: Reals are numbered from 0 in this order -- the input, the
+output, the scalar parameters, the thresholds ``r[1]..r[n]``, the weights
+``b[1]..b[n]`` -- and Booleans follow the Reals.  FMI 2.0 has no arrays, so
+each threshold and weight is its own scalar parameter.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+KINDS = ("plant", "inverse")
+
+# (name, unit, description) of the scalar MPI parameters, in value-reference order
+_SCALAR_PARAMETERS = (
+    ("a1", "um/V3", "cubic coefficient of the input function (0 gives the CPI model)"),
+    ("a2", "um/V", "linear coefficient of the input function"),
+    ("input_offset", "V", "voltage subtracted from the input: u = voltage - input_offset"),
+    ("output_offset", "um", "displacement added to the model output (sensor offset)"),
+    ("voltage_min", "V", "lower end of the voltage range"),
+    ("voltage_max", "V", "upper end of the voltage range"),
+)
+
+# name: (factor, exponents of kg, m, s, A)
+UNITS = {
+    "V": (1.0, {"kg": 1, "m": 2, "s": -3, "A": -1}),
+    "um": (1e-6, {"m": 1}),
+    "um/V": (1e-6, {"kg": -1, "m": -1, "s": 3, "A": 1}),
+    "um/V3": (1e-6, {"kg": -3, "m": -5, "s": 9, "A": 3}),
+}
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One FMI scalar variable.
+
+    ``c_name`` names its value-reference macro (``VR_<c_name>``) in the C
+    configuration; array elements after the first have none (the C code
+    indexes from the first).
+    """
+
+    name: str
+    value_reference: int
+    type: str                 # "Real" or "Boolean"
+    causality: str            # "input", "output" or "parameter"
+    description: str
+    unit: str | None = None
+    start: float | bool | None = None
+    c_name: str | None = None
+
+
+def start_voltage(model) -> float:
+    """Start value of a voltage (V): 0 V if the range holds it, else its low end."""
+    lo, hi = model.voltage_range_V
+    return 0.0 if lo <= 0.0 <= hi else lo
+
+
+def _parameters(model, first_vr: int) -> list:
+    values = {"a1": model.a1, "a2": model.a2, "input_offset": model.input_offset_V,
+              "output_offset": model.output_offset_um, "voltage_min": model.voltage_range_V[0],
+              "voltage_max": model.voltage_range_V[1]}
+    out = []
+    vr = first_vr
+    for name, unit, text in _SCALAR_PARAMETERS:
+        out.append(Variable(name, vr, "Real", "parameter", text, unit, float(values[name]), name))
+        vr += 1
+    for letter, values, unit, text in (
+            ("r", model.thresholds_V, "V", "threshold of operator {i} (>= 0, ascending)"),
+            ("b", model.weights_um_per_V, "um/V", "weight of operator {i}")):
+        for i, value in enumerate(values, start=1):
+            out.append(Variable(f"{letter}[{i}]", vr, "Real", "parameter", text.format(i=i), unit,
+                                float(value), letter if i == 1 else None))
+            vr += 1
+    return out
+
+
+def variables(model, kind: str) -> list:
+    """The variables of the ``kind`` ("plant" or "inverse") FMU of ``model``,
+    ordered by value reference (Reals first)."""
+    v0 = start_voltage(model)
+    if kind == "plant":
+        head = [
+            Variable("voltage", 0, "Real", "input", "voltage applied to the actuator (clamped into "
+                     "[voltage_min, voltage_max])", "V", v0, "voltage"),
+            Variable("displacement", 1, "Real", "output", "displacement of the actuator", "um",
+                     None, "displacement"),
+        ]
+        tail = []
+    elif kind == "inverse":
+        y0 = float(model.simulate([v0])[0])
+        head = [
+            Variable("displacement_ref", 0, "Real", "input", "desired displacement", "um", y0,
+                     "displacement_ref"),
+            Variable("voltage", 1, "Real", "output", "voltage that makes the model follow "
+                     "displacement_ref (within [voltage_min, voltage_max])", "V", None, "voltage"),
+        ]
+        tail = [None]
+    else:
+        raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
+    out = head + _parameters(model, len(head))
+    if tail:
+        out.append(Variable("use_previous_sample", len(out), "Boolean", "parameter",
+                            "false: exact inverse per sample; true: the paper's Fig. 7 loop closed "
+                            "with the previous sample (analytic inverse of eq. 11-12)",
+                            None, False, "use_previous_sample"))
+    return out
