@@ -18,7 +18,7 @@ LOG_CATEGORIES = (
     ("logStatusError", "rejected calls and invalid parameters (always reported)"),
 )
 OPERATOR_MACROS = {"osp": "HYST_OSP", "play": "HYST_PLAY"}
-_CAUSALITY_MACROS = {"input": "LAYER_INPUT", "output": "LAYER_OUTPUT", "parameter": "LAYER_PARAMETER"}
+_CAUSALITY_ORDER = {"input": 0, "output": 1, "parameter": 2}
 
 
 def model_identifier(model, kind: str) -> str:
@@ -64,6 +64,10 @@ def config_header(model, kind: str, guid: str) -> str:
     allv = variables(model, kind)
     reals = [v for v in allv if v.type == "Real"]
     booleans = [v for v in allv if v.type == "Boolean"]
+    # the C layer finds a Real's causality from its value reference
+    order = [_CAUSALITY_ORDER[v.causality] for v in reals]
+    if order != sorted(order) or [v.value_reference for v in allv] != list(range(len(allv))):
+        raise AssertionError("Real variables must be inputs, outputs, parameters, numbered from 0")
     ident = model_identifier(model, kind)
     out = [
         "/*",
@@ -78,6 +82,8 @@ def config_header(model, kind: str, guid: str) -> str:
         f"#define MODEL_N_OPERATORS {model.n_operators}",
         f"#define MODEL_OPERATOR_KIND {OPERATOR_MACROS[model.operator]}",
         f"#define MODEL_N_REALS {len(reals)}",
+        f"#define MODEL_N_INPUTS {sum(v.causality == 'input' for v in reals)}",
+        f"#define MODEL_N_OUTPUTS {sum(v.causality == 'output' for v in reals)}",
         f"#define MODEL_N_BOOLEANS {len(booleans)}",
         f"#define MODEL_FIRST_BOOLEAN_VR {len(reals)}",
         "",
@@ -89,7 +95,6 @@ def config_header(model, kind: str, guid: str) -> str:
     out += [
         "",
         f"#define MODEL_REAL_NAMES {_initializer(_c_string(v.name) for v in reals)}",
-        f"#define MODEL_REAL_CAUSALITIES {_initializer(_CAUSALITY_MACROS[v.causality] for v in reals)}",
         f"#define MODEL_REAL_STARTS {_initializer(_c_double(v.start or 0.0) for v in reals)}",
     ]
     if booleans:

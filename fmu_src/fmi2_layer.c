@@ -28,7 +28,6 @@
 #define LAYER_COLD
 #endif
 
-#define LAYER_INSTANCE_MAGIC 0x4d504931u      /* "MPI1" */
 #define LAYER_SNAPSHOT_MAGIC 0x4d505353u      /* "MPSS" */
 #define LAYER_MESSAGE_SIZE 512
 
@@ -61,7 +60,6 @@
 
 /* ------------------------------------------------------- variable tables */
 static const char *const real_names[MODEL_N_REALS] = MODEL_REAL_NAMES;
-static const unsigned char real_causality[MODEL_N_REALS] = MODEL_REAL_CAUSALITIES;
 static const double real_start[MODEL_N_REALS] = MODEL_REAL_STARTS;
 #if MODEL_N_BOOLEANS > 0
 static const char *const boolean_names[MODEL_N_BOOLEANS] = MODEL_BOOLEAN_NAMES;
@@ -73,13 +71,9 @@ const char *layer_real_name(fmi2ValueReference vr)
     return vr < MODEL_N_REALS ? real_names[vr] : "?";
 }
 
-/* Finite without libm and robust against -ffast-math: exponent not all ones. */
-static int is_finite(double x)
-{
-    uint64_t bits;
-    memcpy(&bits, &x, sizeof bits);
-    return (bits & UINT64_C(0x7ff0000000000000)) != UINT64_C(0x7ff0000000000000);
-}
+#define is_finite layer_is_finite
+#define STEP_TAG LAYER_TAG(LAYER_STEP_COMPLETE)         /* everything up to date */
+#define STEP_STALE (STEP_TAG | LAYER_STALE)             /* inputs changed since */
 
 /* ---------------------------------------------------------------- logging */
 static const char *category_name(unsigned int category)
@@ -154,7 +148,7 @@ static void log_instantiation_error(const fmi2CallbackFunctions *functions, fmi2
 static LAYER_COLD fmi2Status wrong_state(const Instance *inst, const char *function)
 {
     layer_log(inst, fmi2Error, LAYER_LOG_ERROR, "%s: not allowed in state %s", function,
-              state_name(inst->state));
+              state_name(layer_state(inst)));
     return fmi2Error;
 }
 
@@ -180,8 +174,7 @@ static LAYER_COLD fmi2Status unsupported(const Instance *inst, const char *funct
 
 static LAYER_COLD fmi2Status rejected_real(const Instance *inst, fmi2ValueReference vr, double value)
 {
-    const unsigned int causality = real_causality[vr];
-    if (causality == LAYER_OUTPUT) {
+    if (LAYER_IS_OUTPUT(vr)) {
         layer_log(inst, fmi2Error, LAYER_LOG_ERROR, "fmi2SetReal: %s is an output and cannot be set",
                   real_names[vr]);
     } else if (!is_finite(value)) {
@@ -190,7 +183,7 @@ static LAYER_COLD fmi2Status rejected_real(const Instance *inst, fmi2ValueRefere
     } else {
         layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
                   "fmi2SetReal: parameter %s can be set only before fmi2ExitInitializationMode (state %s)",
-                  real_names[vr], state_name(inst->state));
+                  real_names[vr], state_name(layer_state(inst)));
     }
     return fmi2Error;
 }
@@ -199,10 +192,10 @@ static LAYER_COLD fmi2Status rejected_real(const Instance *inst, fmi2ValueRefere
  * no logger to report to. */
 #define BEGIN(c, mask, function)                                   \
     Instance *inst = (Instance *)(c);                              \
-    if (!inst || inst->magic != LAYER_INSTANCE_MAGIC) {            \
+    if (!inst || (inst->tag >> 16) != LAYER_MAGIC) {               \
         return fmi2Error;                                          \
     }                                                              \
-    if (!(inst->state & (mask))) {                                 \
+    if (!(inst->tag & (mask))) {                                   \
         return wrong_state(inst, function);                        \
     }
 
@@ -217,6 +210,12 @@ static fmi2Status worst(fmi2Status a, fmi2Status b)
 }
 
 /* ------------------------------------------------------ instance helpers */
+/* Moves the instance to state, keeping its staleness bits. */
+static void set_state(Instance *inst, unsigned int state)
+{
+    inst->tag = LAYER_TAG(state) | (inst->tag & LAYER_STALE);
+}
+
 static void reset_instance(Instance *inst)
 {
     memcpy(inst->real, real_start, sizeof real_start);
@@ -231,25 +230,35 @@ static void reset_instance(Instance *inst)
     inst->scratch = inst->memory_b;
     inst->time = inst->start_time = inst->stop_time = 0.0;
     inst->stop_time_defined = 0;
-    inst->stale = LAYER_STALE_OUTPUTS | LAYER_STALE_PARAMETERS;
-    inst->state = LAYER_INSTANTIATED;
+    inst->parameters_changed = 1;
+    inst->tag = LAYER_TAG(LAYER_INSTANTIATED) | LAYER_STALE;
     model_reset(inst);
 }
 
+/* Checks changed parameters before they are used.  Not on the per-step
+ * path: parameters are fixed after initialisation. */
+static LAYER_COLD fmi2Status prepare(Instance *inst)
+{
+    const fmi2Status status = model_prepare(inst);
+    if (status <= fmi2Warning) {
+        inst->parameters_changed = 0;
+    }
+    return status;
+}
+
 /* Brings outputs and tentative memory up to date with inputs and parameters. */
-static fmi2Status update(Instance *inst)
+static LAYER_COLD fmi2Status update(Instance *inst)
 {
     fmi2Status status = fmi2OK;
-    if (inst->stale & LAYER_STALE_PARAMETERS) {
-        status = model_prepare(inst);
+    if (inst->parameters_changed) {
+        status = prepare(inst);
         if (status > fmi2Warning) {
             return status;
         }
-        inst->stale &= ~(unsigned int)LAYER_STALE_PARAMETERS;
     }
     const fmi2Status computed = model_update(inst);
     if (computed <= fmi2Warning) {
-        inst->stale = 0;
+        inst->tag &= ~(uint32_t)LAYER_STALE;
     }
     return worst(status, computed);
 }
@@ -351,8 +360,7 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
     inst->environment = functions->componentEnvironment;
     inst->allocate_memory = functions->allocateMemory;
     inst->log_categories = loggingOn ? LAYER_LOG_ALL : 0u;
-    reset_instance(inst);
-    inst->magic = LAYER_INSTANCE_MAGIC;
+    reset_instance(inst);                /* makes the tag valid */
     layer_log(inst, fmi2OK, LAYER_LOG_EVENTS, "instantiated %s (GUID %s)", MODEL_IDENTIFIER_STRING, MODEL_GUID);
     return inst;
 }
@@ -360,10 +368,10 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
 FMI2_Export void fmi2FreeInstance(fmi2Component c)
 {
     Instance *inst = (Instance *)c;
-    if (!inst || inst->magic != LAYER_INSTANCE_MAGIC) {
+    if (!inst || (inst->tag >> 16) != LAYER_MAGIC) {
         return;
     }
-    inst->magic = 0;                     /* a second free is then ignored */
+    inst->tag = 0;                       /* the instance is dead from here on */
     fmi2CallbackFreeMemory free_memory = inst->free_memory;
     free_memory(inst->instance_name);
     free_memory(inst);
@@ -390,7 +398,7 @@ FMI2_Export fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranc
 FMI2_Export fmi2Status fmi2EnterInitializationMode(fmi2Component c)
 {
     BEGIN(c, MASK_ENTER_INITIALIZATION, "fmi2EnterInitializationMode")
-    inst->state = LAYER_INITIALIZATION_MODE;
+    set_state(inst, LAYER_INITIALIZATION_MODE);
     layer_log(inst, fmi2OK, LAYER_LOG_EVENTS, "initialization mode at t = %g s", inst->time);
     return fmi2OK;
 }
@@ -398,15 +406,16 @@ FMI2_Export fmi2Status fmi2EnterInitializationMode(fmi2Component c)
 FMI2_Export fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 {
     BEGIN(c, MASK_EXIT_INITIALIZATION, "fmi2ExitInitializationMode")
-    const fmi2Status status = model_prepare(inst);
+    const fmi2Status status = prepare(inst);
     if (status > fmi2Warning) {
-        inst->state = LAYER_ERROR;
+        set_state(inst, LAYER_ERROR);
         layer_log(inst, status, LAYER_LOG_ERROR,
                   "fmi2ExitInitializationMode: invalid parameters (see above); call fmi2Reset to start again");
         return status;
     }
-    inst->stale = LAYER_STALE_OUTPUTS;
-    inst->state = LAYER_STEP_COMPLETE;
+    /* from here on the parameters are fixed and prepared: the per-step
+     * path relies on that */
+    inst->tag = STEP_STALE;
     layer_log(inst, fmi2OK, LAYER_LOG_EVENTS, "initialized: parameters checked");
     return status;
 }
@@ -414,7 +423,7 @@ FMI2_Export fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 FMI2_Export fmi2Status fmi2Terminate(fmi2Component c)
 {
     BEGIN(c, MASK_TERMINATE, "fmi2Terminate")
-    inst->state = LAYER_TERMINATED;
+    set_state(inst, LAYER_TERMINATED);
     layer_log(inst, fmi2OK, LAYER_LOG_EVENTS, "terminated at t = %g s", inst->time);
     return fmi2OK;
 }
@@ -427,9 +436,14 @@ FMI2_Export fmi2Status fmi2Reset(fmi2Component c)
     return fmi2OK;
 }
 
-/* ------------------------------------------------------------ Real values */
-FMI2_Export fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                                   fmi2Real value[])
+/* ------------------------------------------------------------ Real values
+ * The per-step calls -- one value, in StepComplete -- take a short path;
+ * everything else (several values, parameters, other states, rejected
+ * values) the general one.  In StepComplete the parameters are always
+ * prepared (fmi2ExitInitializationMode and fmi2SetFMUstate see to it), so
+ * the short path only has to bring the outputs up to date. */
+static LAYER_COLD fmi2Status get_reals(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                       fmi2Real value[])
 {
     BEGIN(c, MASK_GET, "fmi2GetReal")
     CHECK_ARRAYS("fmi2GetReal", nvr, vr, value)
@@ -439,7 +453,7 @@ FMI2_Export fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[
         if (r >= MODEL_N_REALS) {
             return unknown_reference(inst, "fmi2GetReal", "Real", r);
         }
-        if (inst->stale && real_causality[r] == LAYER_OUTPUT) {
+        if ((inst->tag & LAYER_STALE_OUTPUTS) && LAYER_IS_OUTPUT(r)) {
             status = worst(status, update(inst));
             if (status > fmi2Warning) {
                 return status;
@@ -450,8 +464,34 @@ FMI2_Export fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[
     return status;
 }
 
-FMI2_Export fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
-                                   const fmi2Real value[])
+FMI2_Export fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                   fmi2Real value[])
+{
+    Instance *inst = (Instance *)c;
+    if (inst && nvr == 1 && vr && value) {
+        const uint32_t tag = inst->tag;
+        const fmi2ValueReference r = vr[0];
+        if (tag == STEP_STALE) {
+            if (LAYER_IS_OUTPUT(r)) {
+                const fmi2Status status = model_update(inst);
+                if (status <= fmi2Warning) {
+                    inst->tag = STEP_TAG;
+                    value[0] = inst->real[r];
+                }
+                return status;
+            }
+        } else if ((tag | LAYER_STALE_NEXT) == (STEP_TAG | LAYER_STALE_NEXT)) {
+            if (r < MODEL_N_REALS) {
+                value[0] = inst->real[r];   /* the outputs are up to date */
+                return fmi2OK;
+            }
+        }
+    }
+    return get_reals(c, vr, nvr, value);
+}
+
+static LAYER_COLD fmi2Status set_reals(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                       const fmi2Real value[])
 {
     BEGIN(c, MASK_SET, "fmi2SetReal")
     CHECK_ARRAYS("fmi2SetReal", nvr, vr, value)
@@ -461,26 +501,43 @@ FMI2_Export fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[
         if (r >= MODEL_N_REALS) {
             return unknown_reference(inst, "fmi2SetReal", "Real", r);
         }
-        const unsigned int causality = real_causality[r];
-        if (causality == LAYER_OUTPUT || !is_finite(value[i]) ||
-            (causality == LAYER_PARAMETER && !(inst->state & MASK_SET_PARAMETER))) {
+        if (LAYER_IS_OUTPUT(r) || !is_finite(value[i]) ||
+            (!LAYER_IS_INPUT(r) && !(inst->tag & MASK_SET_PARAMETER))) {
             return rejected_real(inst, r, value[i]);
         }
     }
     fmi2Status status = fmi2OK;
-    unsigned int stale = LAYER_STALE_OUTPUTS;
     for (size_t i = 0; i < nvr; i++) {
         const fmi2ValueReference r = vr[i];
         double v = value[i];
-        if (real_causality[r] == LAYER_INPUT) {
-            status = worst(status, model_accept_input(inst, r, &v));
+        if (LAYER_IS_INPUT(r)) {
+            if (!model_input_ok(inst, r, v)) {
+                status = worst(status, model_accept_input(inst, r, &v));
+            }
         } else {
-            stale |= LAYER_STALE_PARAMETERS;
+            inst->parameters_changed = 1;
         }
         inst->real[r] = v;
     }
-    inst->stale |= stale;
+    if (nvr > 0) {
+        inst->tag |= LAYER_STALE;
+    }
     return status;
+}
+
+FMI2_Export fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                   const fmi2Real value[])
+{
+    Instance *inst = (Instance *)c;
+    if (inst && (inst->tag | LAYER_STALE) == STEP_STALE && nvr == 1 && vr && value) {
+        const fmi2ValueReference r = vr[0];
+        if (LAYER_IS_INPUT(r) && model_input_ok(inst, r, value[0])) {
+            inst->real[r] = value[0];
+            inst->tag = STEP_STALE;
+            return fmi2OK;
+        }
+    }
+    return set_reals(c, vr, nvr, value);
 }
 
 /* --------------------------------------------------------- Boolean values */
@@ -523,7 +580,7 @@ FMI2_Export fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference 
         if (index < 0) {
             return unknown_reference(inst, "fmi2SetBoolean", "Boolean", vr[i]);
         }
-        if (!(inst->state & MASK_SET_PARAMETER)) {
+        if (!(inst->tag & MASK_SET_PARAMETER)) {
 #if MODEL_N_BOOLEANS > 0
             layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
                       "fmi2SetBoolean: parameter %s can be set only before fmi2ExitInitializationMode",
@@ -536,7 +593,8 @@ FMI2_Export fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference 
         inst->boolean[boolean_index(vr[i])] = value[i] ? fmi2True : fmi2False;
     }
     if (nvr > 0) {
-        inst->stale |= LAYER_STALE_OUTPUTS | LAYER_STALE_PARAMETERS;
+        inst->tag |= LAYER_STALE;
+        inst->parameters_changed = 1;
     }
     return fmi2OK;
 }
@@ -626,7 +684,7 @@ static const unsigned char *get(const unsigned char *p, void *value, size_t size
 static void serialize(const Instance *inst, unsigned char *bytes)
 {
     const uint32_t header[6] = { SERIAL_VERSION, SERIAL_SIZE, MODEL_N_REALS, MODEL_N_BOOLEANS,
-                                 MODEL_N_MEMORY, inst->state };
+                                 MODEL_N_MEMORY, layer_state(inst) };
     const uint64_t hash = guid_hash();
     const double times[3] = { inst->time, inst->start_time, inst->stop_time };
     const uint32_t flags[2] = { (uint32_t)inst->stop_time_defined, 0u };
@@ -726,8 +784,9 @@ static fmi2Status check_serialized(const Instance *inst, const char *function, c
     return fmi2OK;
 }
 
-/* Restores a checked serialised state. */
-static void restore(Instance *inst, const unsigned char *bytes)
+/* Restores a checked serialised state.  After initialisation the restored
+ * parameters are prepared at once (the per-step path relies on it). */
+static fmi2Status restore(Instance *inst, const unsigned char *bytes)
 {
     uint32_t state, flags[2];
     double times[3];
@@ -745,8 +804,16 @@ static void restore(Instance *inst, const unsigned char *bytes)
     inst->start_time = times[1];
     inst->stop_time = times[2];
     inst->stop_time_defined = (int)flags[0];
-    inst->state = state;
-    inst->stale = LAYER_STALE_OUTPUTS | LAYER_STALE_PARAMETERS;
+    inst->tag = LAYER_TAG(state) | LAYER_STALE;
+    inst->parameters_changed = 1;
+    if (state & (LAYER_STEP_COMPLETE | LAYER_TERMINATED)) {
+        const fmi2Status status = prepare(inst);
+        if (status > fmi2Warning) {
+            set_state(inst, LAYER_ERROR);
+            return status;
+        }
+    }
+    return fmi2OK;
 }
 
 static Snapshot *as_snapshot(fmi2FMUstate state)
@@ -800,8 +867,7 @@ FMI2_Export fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate)
     if (status != fmi2OK) {
         return status;
     }
-    restore(inst, snapshot->bytes);
-    return fmi2OK;
+    return restore(inst, snapshot->bytes);
 }
 
 FMI2_Export fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate)
@@ -905,47 +971,78 @@ FMI2_Export fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2V
     return unsupported(inst, "fmi2GetRealOutputDerivatives", "maxOutputDerivativeOrder is 0");
 }
 
-static LAYER_COLD fmi2Status bad_step(const Instance *inst, double t, double h)
+/* Commits the tentative memory, computed for the input held over the step,
+ * and moves on to the end of the step at time next (s). */
+static inline void commit(Instance *inst, double next)
 {
-    if (!(h > 0.0) || !is_finite(h)) {
-        layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
-                  "fmi2DoStep: communicationStepSize = %g s must be positive and finite", h);
-    } else {
-        layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
-                  "fmi2DoStep: currentCommunicationPoint = %.17g s does not match the FMU's time %.17g s",
-                  t, inst->time);
-    }
-    return fmi2Error;
+    double *committed = inst->scratch;
+    inst->scratch = inst->memory;
+    inst->memory = committed;
+    inst->tag = STEP_TAG | LAYER_STALE_NEXT | (model_outputs_hold(inst) ? 0u : LAYER_STALE_OUTPUTS);
+    inst->time = next;
 }
 
-FMI2_Export fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
-                                  fmi2Real communicationStepSize, fmi2Boolean noSetFMUStatePriorToCurrentPoint)
+/* A positive finite double (NaN fails the first comparison). */
+static inline int is_positive_finite(double x)
+{
+    return x > 0.0 && !(x > 1.7976931348623157e308);
+}
+
+/* fmi2DoStep when the short path does not apply: checks the arguments, with
+ * a tolerance on the time, and computes the step's outputs if stale. */
+static LAYER_COLD fmi2Status do_step(fmi2Component c, double t, double h)
 {
     BEGIN(c, MASK_DO_STEP, "fmi2DoStep")
-    (void)noSetFMUStatePriorToCurrentPoint;
-    const double t = currentCommunicationPoint;
-    const double h = communicationStepSize;
     const double now = inst->time;
     /* the importer's time may differ from ours by rounding only */
     const double tolerance = 1e-9 * (1.0 + (now < 0.0 ? -now : now));
     const double offset = t - now;
-    if (!(h > 0.0 && h <= 1.7976931348623157e308 && offset <= tolerance && offset >= -tolerance)) {
-        return bad_step(inst, t, h);
+    if (!is_positive_finite(h)) {
+        layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
+                  "fmi2DoStep: communicationStepSize = %g s must be positive and finite", h);
+        return fmi2Error;
+    }
+    if (!(offset <= tolerance && offset >= -tolerance)) {
+        layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
+                  "fmi2DoStep: currentCommunicationPoint = %.17g s does not match the FMU's time %.17g s",
+                  t, now);
+        return fmi2Error;
     }
     fmi2Status status = fmi2OK;
-    if (inst->stale) {
+    if (inst->tag & LAYER_STALE_NEXT) {
         status = update(inst);
         if (status > fmi2Warning) {
             return status;
         }
     }
-    /* commit: the tentative memory for the input held over the step */
-    double *committed = inst->scratch;
-    inst->scratch = inst->memory;
-    inst->memory = committed;
-    inst->stale = LAYER_STALE_OUTPUTS;
-    inst->time = t + h;
+    commit(inst, t + h);
     return status;
+}
+
+FMI2_Export fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint,
+                                  fmi2Real communicationStepSize, fmi2Boolean noSetFMUStatePriorToCurrentPoint)
+{
+    (void)noSetFMUStatePriorToCurrentPoint;
+    Instance *inst = (Instance *)c;
+    const double t = currentCommunicationPoint;
+    const double h = communicationStepSize;
+    const double next = t + h;
+    /* short path: StepComplete, t is the FMU's time, 0 < h and t + h finite
+     * (NaN fails every comparison) */
+    if (inst && (inst->tag | LAYER_STALE) == STEP_STALE && t == inst->time && next > t &&
+        !(next > 1.7976931348623157e308)) {
+        fmi2Status status = fmi2OK;
+        if (inst->tag & LAYER_STALE_NEXT) {
+            /* parameters are prepared in StepComplete: only the model runs */
+            status = model_update(inst);
+            if (status > fmi2Warning) {
+                return status;
+            }
+        }
+        commit(inst, next);
+        return status;
+    }
+    return do_step(c, t, h);
 }
 
 FMI2_Export fmi2Status fmi2CancelStep(fmi2Component c)

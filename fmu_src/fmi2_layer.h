@@ -23,6 +23,8 @@
 #define PIEZO_FMI2_LAYER_H
 
 #include <stddef.h>
+#include <stdint.h>
+#include <string.h>
 
 #include "fmi2Functions.h"
 #include "model.h"          /* per model: ModelData, MODEL_N_MEMORY */
@@ -45,9 +47,6 @@ enum {
     LAYER_FATAL = 1u << 8               /* never entered: no error is fatal */
 };
 
-/* Causality of a variable (tables in model_config.h). */
-enum { LAYER_INPUT = 0, LAYER_OUTPUT = 1, LAYER_PARAMETER = 2 };
-
 /* Log categories (the names listed in modelDescription.xml). */
 enum {
     LAYER_LOG_EVENTS = 1u << 0,          /* "logEvents": state changes */
@@ -56,17 +55,29 @@ enum {
     LAYER_LOG_ALL = (1u << 3) - 1u
 };
 
-/* Bits of Instance.stale. */
-enum { LAYER_STALE_OUTPUTS = 1, LAYER_STALE_PARAMETERS = 2 };
+/* Real value references are laid out as inputs [0, MODEL_N_INPUTS), outputs
+ * [MODEL_N_INPUTS, MODEL_N_INPUTS + MODEL_N_OUTPUTS), then parameters. */
+#define LAYER_IS_INPUT(vr) ((vr) < MODEL_N_INPUTS)
+#define LAYER_IS_OUTPUT(vr) ((fmi2ValueReference)((vr) - MODEL_N_INPUTS) < MODEL_N_OUTPUTS)
 
 #define LAYER_STORAGE(n) ((n) > 0 ? (n) : 1)   /* C has no empty arrays */
 
+/* The tag of a live instance holds a magic number (high half), its state
+ * (one LAYER_* bit) and two staleness bits: LAYER_STALE_OUTPUTS when the
+ * outputs are not computed for the current inputs and committed memory,
+ * LAYER_STALE_NEXT when the tentative memory is not.  One comparison of the
+ * tag thus checks "alive, in StepComplete, what is up to date" on the
+ * per-step path. */
+#define LAYER_MAGIC 0x4d50u
+#define LAYER_STALE_OUTPUTS (1u << 15)
+#define LAYER_STALE_NEXT (1u << 14)
+#define LAYER_STALE (LAYER_STALE_OUTPUTS | LAYER_STALE_NEXT)
+#define LAYER_TAG(state) ((uint32_t)((LAYER_MAGIC << 16) | (state)))
+
 typedef struct Instance {
-    unsigned int magic;              /* LAYER_INSTANCE_MAGIC while alive */
-    unsigned int state;              /* one LAYER_* state bit */
-    unsigned int stale;              /* LAYER_STALE_* bits */
-    unsigned int log_categories;     /* LAYER_LOG_* bits, used when logging_on */
-    int logging_on;
+    uint32_t tag;                    /* LAYER_TAG(state) [| LAYER_STALE]; 0 after free */
+    uint32_t parameters_changed;     /* parameters set since model_prepare */
+    uint32_t log_categories;         /* LAYER_LOG_* bits enabled */
     int stop_time_defined;
     double time;                     /* communication point, s */
     double start_time;               /* s */
@@ -85,6 +96,12 @@ typedef struct Instance {
     char *instance_name;
 } Instance;
 
+/* The state (one LAYER_* bit) of an instance. */
+static inline unsigned int layer_state(const Instance *inst)
+{
+    return inst->tag & (LAYER_STALE_NEXT - 1u);
+}
+
 /* Logging for models and layer.  Messages with status fmi2Error or worse
  * always reach the logger; others only when logging is on for category. */
 #if defined(__GNUC__) || defined(__clang__)
@@ -97,6 +114,14 @@ void layer_log(const Instance *inst, fmi2Status status, unsigned int category,
 
 /* Name of the Real variable with value reference vr (for messages). */
 const char *layer_real_name(fmi2ValueReference vr);
+
+/* Finite without libm and robust against -ffast-math: exponent not all ones. */
+static inline int layer_is_finite(double x)
+{
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    return (bits & UINT64_C(0x7ff0000000000000)) != UINT64_C(0x7ff0000000000000);
+}
 
 /* ------------------------------------------------------------------------
  * Hooks every model implements (model.c).
@@ -111,14 +136,31 @@ void model_reset(Instance *inst);
  * invalid set; fmi2Warning when it had to adjust an input. */
 fmi2Status model_prepare(Instance *inst);
 
-/* Accepts a new finite value of the input with value reference vr; may
+/* Per-step fast check: nonzero when value can be stored as the input vr as it
+ * is.  Must be zero for a value that is not finite. */
+int model_input_ok(const Instance *inst, fmi2ValueReference vr, double value);
+
+/* Accepts a finite value of the input vr that model_input_ok refused; may
  * adjust it (and return fmi2Warning with a log line). */
 fmi2Status model_accept_input(Instance *inst, fmi2ValueReference vr, double *value);
 
+/* Nonzero when the outputs computed before a step are still the outputs for
+ * the same inputs after the step committed the memory -- true when updating
+ * the memory twice with the same inputs changes nothing, as for the play
+ * operators; then reading the outputs after fmi2DoStep computes nothing. */
+int model_outputs_hold(const Instance *inst);
+
 /* Computes every output in inst->real for the current inputs from the
  * committed memory, and writes the memory after these inputs into
- * inst->scratch (all MODEL_N_MEMORY values). */
+ * inst->scratch (all MODEL_N_MEMORY values).  Defined with LAYER_HOT: it is
+ * the per-step work and belongs inlined into fmi2GetReal and fmi2DoStep. */
 fmi2Status model_update(Instance *inst);
+
+#if defined(__GNUC__) || defined(__clang__)
+#define LAYER_HOT __attribute__((always_inline)) inline
+#else
+#define LAYER_HOT
+#endif
 
 #ifdef __cplusplus
 }

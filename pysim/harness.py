@@ -96,9 +96,10 @@ class FMUUnit:
                                     instanceName=instance_name)
             self._slave.instantiate(loggingOn=False)
             self._initialise()
-        except Exception:
+        except Exception as exc:
             self.close()
-            raise
+            # no binary for this platform, or a model that refuses its parameters
+            raise UserError(f"{self.path}: cannot load and initialise the FMU ({exc})") from exc
         # Raw entry points for the hot loop.  Fresh function pointers (indexing,
         # not attribute access) so fmpy's own bindings keep their settings.  No
         # argtypes: every argument is passed as a ctypes object of the exact C
@@ -202,6 +203,7 @@ class CoSimulation:
             raise ValueError(f"stage_start must be 'rest' or 'steady', got {stage_start!r}")
         self.stage_system = stage
         self.stage_method = stage_method
+        self._make_stage = None if stage is None else DiscreteStage.factory(stage, stage_method)
         self.stage_start = stage_start
         self._units = []
         self.plant = self._open(plant_fmu, PLANT_PORTS, "plant")
@@ -220,13 +222,19 @@ class CoSimulation:
             self.close()
             raise
         self._units.append(unit)
+        # the fallback to "the one real input" must not accept the other kind of FMU
+        other, other_input = ("inverse", INVERSE_PORTS[0]) if name == "plant" else ("plant", PLANT_PORTS[0])
+        if unit.input.name == other_input:
+            self.close()
+            raise UserError(f"{unit.path}: its input is {other_input!r}, so it is the {other} FMU, "
+                            f"not the {name} FMU")
         return unit
 
     def _configure(self, step_s, prewarp_hz):
         if not (isinstance(step_s, (int, float)) and np.isfinite(step_s) and step_s > 0):
             raise ValueError(f"step must be a positive number of seconds, got {step_s!r}")
         if self.stage_system is not None and (step_s != self.step_s or prewarp_hz != self.prewarp_hz):
-            self.stage = DiscreteStage(self.stage_system, step_s, self.stage_method, prewarp_hz)
+            self.stage = self._make_stage(step_s, prewarp_hz)
         self.step_s, self.prewarp_hz = float(step_s), prewarp_hz
 
     # ---------------------------------------------------------------- control
@@ -389,3 +397,33 @@ class NominalDrive:
         y = sim.run(voltage_V=[lo, hi]).displacement_plant_um
         sim.reset()
         return cls(float(lo), float(y[0]), float((y[1] - y[0]) / (hi - lo)))
+
+
+def fmus_for_model(model, out_dir=None) -> tuple[Path, Path]:
+    """Plant and inverse FMUs of ``model`` for this machine, built if needed.
+
+    Parameters
+    ----------
+    model : HysteresisModel
+    out_dir : str or Path, optional
+        Where the FMUs go (default: a per-model folder in the package cache,
+        ``$PIEZO_MPI_CACHE`` or ``~/.cache/piezo-mpi``); the builder's own
+        cache makes a repeated call cheap.
+
+    Returns
+    -------
+    (plant_path, inverse_path)
+    """
+    import hashlib
+
+    from fmpy import platform
+
+    from build_fmu import build_fmus
+    from pysim import _kernel
+    from pysim.spec import spec_source
+
+    if out_dir is None:
+        digest = hashlib.sha256(spec_source(model).encode()).hexdigest()[:12]
+        out_dir = _kernel._cache_dir() / "fmus" / f"{model.name}-{digest}"
+    paths = build_fmus(model, Path(out_dir), platforms=(platform,))
+    return Path(paths["plant"]), Path(paths["inverse"])

@@ -51,7 +51,7 @@ def input_changes(voltage_V, tolerance_V: float):
     A reversal is placed at the extreme sample once the input has moved back
     from it by more than ``tolerance_V`` (so noise on a hold is no reversal); a
     jump is a one-sample step larger than ten times ``tolerance_V`` and than ten
-    times the median step of the moving input (a step, not a fast ramp).
+    times the median step (a step, not a fast ramp).
 
     Returns
     -------
@@ -63,8 +63,7 @@ def input_changes(voltage_V, tolerance_V: float):
     v = np.asarray(voltage_V, dtype=float)
     events = {}
     dv = np.diff(v)
-    moving = np.abs(dv)[np.abs(dv) > 0]
-    jump = 10.0 * max(tolerance_V, float(np.median(moving)) if moving.size else 0.0)
+    jump = 10.0 * max(tolerance_V, float(np.median(np.abs(dv))) if dv.size else 0.0)
     for k in np.flatnonzero(np.abs(dv) > jump):
         events[int(k) + 1] = float(np.sign(dv[k]))
     top = bottom = 0          # running maximum / minimum since the last reversal

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import control
 import numpy as np
+import scipy.linalg
 import scipy.signal
 
 from pysim.errors import UserError
@@ -50,6 +51,51 @@ def as_siso(system):
         raise ValueError(f"stage must have one input and one output, "
                          f"got {system.ninputs} inputs and {system.noutputs} outputs")
     return system
+
+
+def _matrices(system):
+    """(A, B, C, D) of a SISO system as float arrays."""
+    ss = control.ss(system)
+    return tuple(np.atleast_2d(np.asarray(m, dtype=float)) for m in (ss.A, ss.B, ss.C, ss.D))
+
+
+def _check_step(system, step_s, method, prewarp_hz):
+    if not (isinstance(step_s, (int, float)) and step_s > 0 and math.isfinite(step_s)):
+        raise ValueError(f"step must be a positive number of seconds, got {step_s}")
+    if method not in METHODS:
+        raise ValueError(f"discretisation method must be one of {METHODS}, got {method!r}")
+    if system.dt is True:
+        raise ValueError("stage is discrete with an unspecified sampling time (dt=True); give it dt = step")
+    if system.dt and not math.isclose(system.dt, step_s, rel_tol=1e-9):
+        raise ValueError(f"discrete stage has dt = {system.dt} s but the communication step is {step_s} s")
+    if prewarp_hz is not None and not system.dt:
+        if method != "tustin":
+            raise ValueError("prewarp_hz applies to the tustin method only")
+        if not (0 < prewarp_hz < 0.5 / step_s):
+            raise ValueError(f"prewarp frequency {prewarp_hz} Hz must lie between 0 and the Nyquist "
+                             f"frequency {0.5 / step_s} Hz")
+
+
+def _discretise_matrices(matrices, step_s, method, prewarp_hz):
+    A, B, C, D = matrices
+    if A.size == 0:
+        return matrices  # a static gain is the same at any step
+    if method == "tustin":
+        # Prewarping at w0 is the bilinear map with the step T' = 2 tan(w0 h / 2) / w0:
+        # s = (2 / T') (z - 1) / (z + 1) sends s = j w0 to z = exp(j w0 h) exactly.
+        step = step_s if prewarp_hz is None else math.tan(math.pi * prewarp_hz * step_s) / (math.pi * prewarp_hz)
+        # Bilinear form with M = I - A T/2: Ad = M^-1 (I + A T/2), Bd = M^-1 B T,
+        # Cd = C M^-1, Dd = D + C M^-1 B T/2 (numpy: scipy's solve costs
+        # milliseconds per call here, which a sweep pays at every frequency)
+        identity = np.eye(A.shape[0])
+        m = identity - A * (step / 2)
+        Ad = np.linalg.solve(m, identity + A * (step / 2))
+        Bd = np.linalg.solve(m, B * step)
+        Cd = np.linalg.solve(m.T, C.T).T
+        Dd = D + Cd @ B * (step / 2)
+    else:
+        Ad, Bd, Cd, Dd, _ = scipy.signal.cont2discrete((A, B, C, D), step_s, method=method)
+    return Ad, Bd, Cd, Dd
 
 
 def discretise(system, step_s: float, method: str = "tustin", prewarp_hz: float | None = None):
@@ -69,28 +115,14 @@ def discretise(system, step_s: float, method: str = "tustin", prewarp_hz: float 
 
     Returns
     -------
-    Discrete python-control system with ``dt == step_s``.
+    Discrete python-control state-space system with ``dt == step_s`` (a
+    discrete ``system`` is returned as is).
     """
     as_siso(system)
-    if not (step_s > 0 and math.isfinite(step_s)):
-        raise ValueError(f"step must be a positive number of seconds, got {step_s}")
-    if method not in METHODS:
-        raise ValueError(f"discretisation method must be one of {METHODS}, got {method!r}")
-    if system.dt is True:
-        raise ValueError("stage is discrete with an unspecified sampling time (dt=True); give it dt = step")
+    _check_step(system, step_s, method, prewarp_hz)
     if system.dt:
-        if not math.isclose(system.dt, step_s, rel_tol=1e-9):
-            raise ValueError(f"discrete stage has dt = {system.dt} s but the communication step is {step_s} s")
         return system
-    if prewarp_hz is not None and method != "tustin":
-        raise ValueError("prewarp_hz applies to the tustin method only")
-    if prewarp_hz is not None and not (0 < prewarp_hz < 0.5 / step_s):
-        raise ValueError(f"prewarp frequency {prewarp_hz} Hz must lie between 0 and the Nyquist "
-                         f"frequency {0.5 / step_s} Hz")
-    prewarp = None if prewarp_hz is None else 2.0 * math.pi * prewarp_hz
-    # through state space: a transfer function would gain a cancelling
-    # pole-zero pair for a static gain under Tustin
-    return control.sample_system(control.ss(system), step_s, method=method, prewarp_frequency=prewarp)
+    return control.ss(*_discretise_matrices(_matrices(system), step_s, method, prewarp_hz), step_s)
 
 
 def slowest_time_constant_s(system) -> float:
@@ -110,35 +142,43 @@ def slowest_time_constant_s(system) -> float:
     return math.inf if slowest >= 0 else -1.0 / slowest
 
 
-def _sections(system):
+def _response(matrices, z):
+    """C (z I - A)^-1 B + D at the complex point z."""
+    A, B, C, D = matrices
+    if A.size == 0:
+        return complex(D.item())
+    return complex((C @ np.linalg.solve(z * np.eye(A.shape[0]) - A, B)).item() + D.item())
+
+
+def _sections(matrices):
     """Second-order sections and pure delay (samples) of a discrete SISO system.
 
-    Poles and zeros come from the state-space form (eigenvalues), which stays
-    accurate for poles crowded near z = 1 at fine steps, where the roots of
-    transfer-function coefficients would not.  scipy's digital zpk form pads
-    missing zeros at the origin, which would drop the delay of a strictly
-    proper system (ZOH gives one), so the delay is kept apart and applied as a
-    short delay line.
+    Poles are the eigenvalues of A and zeros the finite generalised
+    eigenvalues of the system pencil [[A, B], [C, D]] - z [[I, 0], [0, 0]]:
+    both stay accurate for poles crowded near z = 1 at fine steps, where
+    the roots of transfer-function coefficients would not.  scipy's digital
+    zpk form pads missing zeros at the origin, which would drop the delay of a
+    strictly proper system (ZOH gives one), so the delay is kept apart and
+    applied as a short delay line.
     """
-    ss = control.ss(system)
-    A = np.asarray(ss.A, dtype=float)
-    poles = np.linalg.eigvals(A) if A.size else np.zeros(0)
-    zeros = np.asarray(ss.zeros(), dtype=complex) if A.size else np.zeros(0)
+    A, B, C, D = matrices
+    if A.size == 0:
+        return np.array([[float(D.item()), 0.0, 0.0, 1.0, 0.0, 0.0]]), 0
+    n = A.shape[0]
+    poles = np.linalg.eigvals(A)
+    pencil = np.block([[A, B], [C, D]])
+    mass = np.zeros((n + 1, n + 1))
+    mass[:n, :n] = np.eye(n)
+    zeros = scipy.linalg.eigvals(pencil, mass)
     zeros = zeros[np.isfinite(zeros)]
     delay = poles.size - zeros.size
-    if delay < 0:
-        raise ValueError("the discrete stage is improper (more zeros than poles): it is not causal")
     # gain of k prod(z - z_i) / prod(z - p_j), matched at a point away from both
     candidates = np.array([2.0, -2.0, 2.0j, 1.5 + 1.5j, 3.0])
-    distance = [min(np.min(np.abs(c - poles), initial=np.inf), np.min(np.abs(c - zeros), initial=np.inf))
-                for c in candidates]
+    distance = [min(np.min(np.abs(c - poles)), np.min(np.abs(c - zeros), initial=np.inf)) for c in candidates]
     z0 = candidates[int(np.argmax(distance))]
-    value = complex(np.asarray(ss(z0)).squeeze())
-    gain = (value * np.prod(z0 - poles) / np.prod(z0 - zeros)).real
+    gain = (_response(matrices, z0) * np.prod(z0 - poles) / np.prod(z0 - zeros)).real
     if gain == 0.0:
         return np.array([[0.0, 0.0, 0.0, 1.0, 0.0, 0.0]]), 0
-    if poles.size == 0:
-        return np.array([[gain, 0.0, 0.0, 1.0, 0.0, 0.0]]), 0
     return scipy.signal.zpk2sos(zeros, poles, gain), delay
 
 
@@ -156,12 +196,31 @@ class DiscreteStage:
         See :func:`discretise`.
     """
 
-    def __init__(self, system, step_s: float, method: str = "tustin", prewarp_hz: float | None = None):
-        self.continuous = None if system.dt else system
-        self.system = discretise(system, step_s, method, prewarp_hz)
+    def __init__(self, system, step_s: float, method: str = "tustin", prewarp_hz: float | None = None,
+                 _matrices_cache=None):
+        as_siso(system)
+        _check_step(system, step_s, method, prewarp_hz)
+        matrices = _matrices(system) if _matrices_cache is None else _matrices_cache
+        self.matrices = matrices if system.dt else _discretise_matrices(matrices, step_s, method, prewarp_hz)
         self.step_s = float(step_s)
-        self.sos, self.delay = _sections(self.system)
+        self.sos, self.delay = _sections(self.matrices)
+        self._system = None
         self.reset()
+
+    @classmethod
+    def factory(cls, system, method: str = "tustin"):
+        """A function ``(step_s, prewarp_hz) -> DiscreteStage`` that converts
+        ``system`` to state space once (for sweeps that change the step)."""
+        as_siso(system)
+        matrices = _matrices(system)
+        return lambda step_s, prewarp_hz=None: cls(system, step_s, method, prewarp_hz, matrices)
+
+    @property
+    def system(self):
+        """The discrete system as a python-control state-space object."""
+        if self._system is None:
+            self._system = control.ss(*self.matrices, self.step_s)
+        return self._system
 
     def reset(self, initial_input: float | None = None):
         """Rest (zero state), or at equilibrium with a constant input
@@ -170,19 +229,22 @@ class DiscreteStage:
             self._zi = np.zeros((self.sos.shape[0], 2))
             self._line = np.zeros(self.delay)
             return
-        if np.any(np.abs(np.asarray(self.system.poles()) - 1.0) < 1e-12):
+        A = self.matrices[0]
+        if A.size and np.any(np.abs(np.linalg.eigvals(A) - 1.0) < 1e-12):
             raise ValueError("the stage has a pole at z = 1 (no finite static gain): it has no "
                              "equilibrium for a constant input")
         self._zi = scipy.signal.sosfilt_zi(self.sos) * float(initial_input)
-        self._line = np.full(self.delay, float(self.dc_gain() * initial_input))
+        self._line = np.full(self.delay, self.dc_gain() * float(initial_input))
 
     def dc_gain(self) -> float:
         """Static gain of the discrete system."""
-        return float(np.real(self.system(1.0)))
+        return _response(self.matrices, 1.0).real
 
     def apply(self, signal) -> np.ndarray:
         """Filter a block of samples, continuing from the carried state."""
         u = np.asarray(signal, dtype=float).ravel()
+        if u.size == 0:
+            return u.copy()
         y, self._zi = scipy.signal.sosfilt(self.sos, u, zi=self._zi)
         if self.delay:
             # y[n] = s[n - delay]; the line holds the last `delay` filter outputs
@@ -196,8 +258,9 @@ class DiscreteStage:
 
     def frequency_response(self, frequency_hz) -> np.ndarray:
         """Complex response of the discrete system at ``frequency_hz``."""
-        f = np.asarray(frequency_hz, dtype=float)
-        return np.asarray(self.system(np.exp(2j * math.pi * f * self.step_s)), dtype=complex)
+        f = np.atleast_1d(np.asarray(frequency_hz, dtype=float))
+        out = np.array([_response(self.matrices, np.exp(2j * math.pi * x * self.step_s)) for x in f])
+        return out if np.ndim(frequency_hz) else out[0]
 
 
 def load_stage(source):

@@ -53,6 +53,8 @@ EFFECTS = ("none", "rate_dependence", "creep", "delay", "drift")
 WAVEFORMS = ("triangles", "multisine", "steps")
 N_OPERATORS = 10
 SNR_RANGE = (4.0, 40.0)
+#: RMS of the drift's random-walk part relative to its polynomial part.
+DRIFT_WALK_SHARE = 0.05
 
 
 @dataclass
@@ -205,7 +207,7 @@ def _drift_shape(rng, n, T):
     walk = np.cumsum(rng.normal(size=n))
     walk = scipy.signal.sosfiltfilt(scipy.signal.butter(2, 20.0 / n, output="sos"), walk)
     walk -= np.polyval(np.polyfit(s, walk, 1), s)
-    walk *= 0.1 * np.std(poly) / np.std(walk)
+    walk *= DRIFT_WALK_SHARE * np.std(poly) / np.std(walk)
     return poly + walk, {"degree": degree}
 
 

@@ -36,15 +36,29 @@ fmi2Status model_prepare(Instance *inst)
     return fmi2OK;
 }
 
-fmi2Status model_accept_input(Instance *inst, fmi2ValueReference vr, double *value)
+int model_input_ok(const Instance *inst, fmi2ValueReference vr, double value)
 {
     (void)inst;                          /* any finite displacement: the */
     (void)vr;                            /* voltage saturates if need be */
+    return layer_is_finite(value);
+}
+
+fmi2Status model_accept_input(Instance *inst, fmi2ValueReference vr, double *value)
+{
+    (void)inst;                          /* never called: everything finite is ok */
+    (void)vr;
     (void)value;
     return fmi2OK;
 }
 
-fmi2Status model_update(Instance *inst)
+int model_outputs_hold(const Instance *inst)
+{
+    /* exact: the committed state still maps the voltage to the reference;
+     * previous sample: the next loop sample differs even for a held input */
+    return !inst->model.previous_sample;
+}
+
+LAYER_HOT fmi2Status model_update(Instance *inst)
 {
     const double *real = inst->real;
     const double target = real[VR_displacement_ref];

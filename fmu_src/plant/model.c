@@ -23,13 +23,25 @@ fmi2Status model_prepare(Instance *inst)
     return mpi_clamp_voltage(inst, "voltage", &inst->real[VR_voltage]);
 }
 
+int model_input_ok(const Instance *inst, fmi2ValueReference vr, double value)
+{
+    (void)vr;                            /* inside the range, hence finite */
+    return value >= inst->real[VR_voltage_min] && !(value > inst->real[VR_voltage_max]);
+}
+
 fmi2Status model_accept_input(Instance *inst, fmi2ValueReference vr, double *value)
 {
     (void)vr;                            /* the only input: voltage */
     return mpi_clamp_voltage(inst, "voltage", value);
 }
 
-fmi2Status model_update(Instance *inst)
+int model_outputs_hold(const Instance *inst)
+{
+    (void)inst;                          /* play operators: idempotent update */
+    return 1;
+}
+
+LAYER_HOT fmi2Status model_update(Instance *inst)
 {
     const HystModel hysteresis = MPI_MODEL(inst->real);
     const double displacement = hyst_output(&hysteresis, inst->real[VR_voltage], inst->memory,

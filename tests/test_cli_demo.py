@@ -1,0 +1,81 @@
+"""`pysim demo`, `pysim track`, `pysim bandwidth` as a user runs them (subprocesses)."""
+import json
+import subprocess
+import sys
+
+import pytest
+
+from fmu_fixtures import default_fmus  # noqa: F401  (fixture)
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def pysim(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "pysim.cli", *map(str, args)], capture_output=True,
+                          text=True, cwd=cwd, timeout=600)
+
+
+def test_demo_writes_plots_report_and_results(tmp_path):
+    out = tmp_path / "demo"
+    result = pysim("demo", "--out", out)
+    assert result.returncode == 0, result.stderr
+    for name in ("hysteresis_loops.png", "bode_magnitude.png", "tracking_errors.png"):
+        data = (out / name).read_bytes()
+        assert data.startswith(PNG_MAGIC) and len(data) > 20000
+    report = (out / "report.md").read_text()
+    assert "2.93 %" in report and "884 Hz" in report and "![Bode magnitude](bode_magnitude.png)" in report
+    results = json.loads((out / "results.json").read_text())
+    assert len(results["tracking"]["tracking"]) == 4
+    assert set(results["bandwidth"]["bandwidth_hz"]) == {"uncompensated", "compensated"}
+    assert "Tracking errors" in result.stdout and "-3 dB bandwidth" in result.stdout
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no staging left behind
+
+
+def test_track_json(default_fmus):
+    plant, inverse = default_fmus
+    result = pysim("track", "--json", "--plant", plant, "--inverse", inverse)
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    rows = data["tracking"]
+    assert [row["amplitude_um"] for row in rows] == [7.5, 15.0, 22.5, 30.0]
+    for row in rows:
+        assert row["compensated"]["max_error_pct"] < row["uncompensated"]["max_error_pct"]
+        assert row["paper"]["max_error_pct"] > 0
+
+
+def test_bandwidth_json(default_fmus):
+    plant, inverse = default_fmus
+    result = pysim("bandwidth", "--json", "--plant", plant, "--inverse", inverse, "--amplitudes", "10", "20")
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    assert set(data["bandwidth_hz"]) == {"uncompensated", "compensated"}
+    for value in data["bandwidth_hz"].values():
+        assert value == pytest.approx(data["stage_bandwidth_hz"], rel=0.01)
+    assert [row["amplitude_um"] for row in data["by_amplitude"]] == [10.0, 20.0]
+    assert data["paper_bandwidth_hz"] == {"uncompensated": 185.0, "compensated": 884.0}
+    assert len(data["frequencies_hz"]) >= 30
+
+
+@pytest.mark.parametrize("args, message", [
+    (("bandwidth", "--points", "5"), "--points must be at least 30"),
+    (("bandwidth", "--f-min", "100", "--f-max", "10"), "--f-min"),
+    (("bandwidth", "--amplitudes", "-1"), "--amplitudes must be positive"),
+    (("track", "--plant", "x.fmu"), "give both --plant and --inverse"),
+    (("track", "--plant", "missing.fmu", "--inverse", "missing.fmu"), "missing.fmu: FMU file does not exist"),
+    (("track", "--step", "0.03"), "does not divide"),
+    (("track", "--stage", "missing_stage.py"), "missing_stage.py: stage file does not exist"),
+    (("track", "--model", "missing_spec.py"), "missing_spec.py"),
+])
+def test_bad_input_is_one_line_and_exit_code_2(tmp_path, args, message):
+    result = pysim(*args, cwd=tmp_path)
+    assert result.returncode == 2
+    assert message in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_demo_refuses_an_output_path_that_is_a_file(tmp_path):
+    target = tmp_path / "taken"
+    target.write_text("keep me")
+    result = pysim("demo", "--out", target)
+    assert result.returncode == 2 and "is not a folder" in result.stderr
+    assert target.read_text() == "keep me"
