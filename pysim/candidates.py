@@ -65,6 +65,20 @@ class CandidateFit:
     prediction_um: np.ndarray
     parameters: dict
 
+    @property
+    def complexity(self) -> int:
+        """Number of fitted effect parameters besides the hysteresis (Occam's razor)."""
+        p = self.parameters
+        if self.cause == "rate_dependence":
+            return int(p["order"])
+        if self.cause == "delay":
+            return 1
+        if self.cause == "creep":
+            return len(p["time_constants_s"])
+        if self.cause == "drift":
+            return int(p["degree"])
+        return 0
+
 
 def _bic(sse: float, n: int, k: int) -> float:
     return n * math.log(max(sse, 1e-300) / n) + k * math.log(n)

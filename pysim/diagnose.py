@@ -24,9 +24,11 @@ Procedure (``diagnose``):
    error by at least ``MIN_GAIN_PCT`` %.  Without noise-level structure nothing
    can be significant, so a model that only fits noise never is.
 4. **Cause**: the significant candidate with the lowest held-out RMS error, or
-   ``none`` when no candidate is significant.  Each candidate's evidence (its
-   held-out error, its parameters, the residual statistics that point to it)
-   is reported with the reason the winner wins.
+   ``none`` when no candidate is significant.  Occam's razor: a candidate with
+   fewer effect parameters whose held-out mean-square error is within
+   ``NOISE_FRACTION`` × σ² of the best one's is preferred.  Each candidate's
+   evidence (its held-out error, its parameters, the residual statistics that
+   point to it) is reported with the reason the winner wins.
 5. **Gain**: held-out max and RMS error (% of the held-out measured range) of
    the baseline and of the extended model, ``gain_pct = 100 (1 − rms_after /
    rms_before)``.
@@ -364,13 +366,20 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     significant = [ev for ev in candidates.values() if ev.significant]
     ranked = sorted(candidates.values(), key=lambda ev: ev.rms_um)
     if significant:
-        winner = min(significant, key=lambda ev: ev.rms_um)
+        best = min(significant, key=lambda ev: ev.rms_um)
+        # Occam's razor: as good within the noise margin and simpler
+        close = [ev for ev in significant
+                 if ev.rms_um**2 - best.rms_um**2 <= NOISE_FRACTION * noise**2]
+        winner = min(close, key=lambda ev: (ev.fit.complexity, ev.rms_um))
         cause, extended = winner.cause, winner
         runner = next((ev for ev in ranked if ev is not winner), None)
         why = (f"{cause} lowers the held-out RMS error the most: {baseline.rms_pct:.3g} % → "
                f"{winner.rms_pct:.3g} % of range ({winner.gain_pct:.1f} % less, {winner.excess_over_noise:.3g} σ² "
                f"of mean-square error removed, σ = {noise:.3g} µm)")
-        if runner is not None:
+        if winner is not best:
+            why += (f"; {best.cause} reaches {best.rms_pct:.3g} %, but within the noise margin "
+                    f"({NOISE_FRACTION} σ²) with more parameters, so the simpler {cause} is named")
+        elif runner is not None:
             why += (f"; next best {runner.cause} reaches {runner.rms_pct:.3g} % "
                     f"({runner.gain_pct:.1f} % less)")
     else:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import ctypes
 import shutil
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -91,10 +92,11 @@ class FMUUnit:
         self._unzipdir = extract(str(self.path))
         self._slave = None
         try:
+            callbacks, self.instance_name, self.messages = _callbacks(instance_name)
             self._slave = FMU2Slave(guid=md.guid, unzipDirectory=self._unzipdir,
                                     modelIdentifier=md.coSimulation.modelIdentifier,
-                                    instanceName=instance_name)
-            self._slave.instantiate(loggingOn=False)
+                                    instanceName=self.instance_name)
+            self._slave.instantiate(callbacks=callbacks, loggingOn=False)
             self._initialise()
         except Exception as exc:
             self.close()
@@ -164,6 +166,7 @@ class FMUUnit:
                 pass  # freeing below is what matters
             self._slave.freeInstance()
             self._slave.component = None
+        _LOG["messages"].pop(getattr(self, "instance_name", None), None)
         if self._unzipdir is not None:
             shutil.rmtree(self._unzipdir, ignore_errors=True)
             self._unzipdir = None
@@ -205,13 +208,13 @@ class CoSimulation:
         self.stage_method = stage_method
         self._make_stage = None if stage is None else DiscreteStage.factory(stage, stage_method)
         self.stage_start = stage_start
-        self._units = []
-        self.plant = self._open(plant_fmu, PLANT_PORTS, "plant")
-        self.inverse = None if inverse_fmu is None else self._open(inverse_fmu, INVERSE_PORTS, "inverse")
         self.stage = None
         self.step_s = None
         self.prewarp_hz = None
-        self._configure(step_s, prewarp_hz)
+        self._configure(step_s, prewarp_hz)  # bad step or stage: refused before any FMU is loaded
+        self._units = []
+        self.plant = self._open(plant_fmu, PLANT_PORTS, "plant")
+        self.inverse = None if inverse_fmu is None else self._open(inverse_fmu, INVERSE_PORTS, "inverse")
         self._steps = 0
         self._pending_steady = stage_start == "steady"
 
@@ -256,7 +259,7 @@ class CoSimulation:
 
     def close(self):
         """Free the FMUs (idempotent)."""
-        while self._units:
+        while getattr(self, "_units", None):
             self._units.pop().close()
 
     def __enter__(self):
@@ -347,17 +350,64 @@ class CoSimulation:
         return np.array(volts), np.array(out)
 
 
+_LOG = {"callbacks": None, "messages": {}, "count": 0}
+
+
+def _callbacks(role: str):
+    """FMI callbacks whose logger writes to stderr (never stdout, which may
+    carry JSON) and keeps each instance's last messages for error reports.
+
+    fmpy's native proxy, which formats the variadic arguments, forwards to
+    one Python logger per process, so one set of callbacks serves every
+    instance and the messages are told apart by unique instance names.  With
+    logging off the FMU only reports errors, so the hot loop never calls back.
+
+    Returns (callbacks, instance_name, messages list of that instance).
+    """
+    from fmpy.fmi2 import (calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                           fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free)
+
+    if _LOG["callbacks"] is None:
+        def log(_environment, instance, status, _category, message):
+            name = instance.decode("utf-8", "replace") if instance else "?"
+            text = message.decode("utf-8", "replace") if message else ""
+            kept = _LOG["messages"].get(name)
+            if kept is not None:
+                kept.append(text)
+                del kept[:-20]
+            print(f"{name} FMU [{_STATUS.get(status, status)}] {text}", file=sys.stderr)
+
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = fmi2CallbackLoggerTYPE(log)
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        try:
+            from fmpy.logging import addLoggerProxy
+
+            addLoggerProxy(ctypes.byref(callbacks))
+        except Exception:
+            pass  # messages then arrive unformatted, which is still readable
+        _LOG["callbacks"] = callbacks
+    _LOG["count"] += 1
+    name = role if _LOG["count"] == 1 else f"{role}-{_LOG['count']}"
+    messages = _LOG["messages"].setdefault(name, [])
+    return _LOG["callbacks"], name, messages
+
+
 def _failure(unit: FMUUnit, u, y, t: float, what: str, value: float) -> RuntimeError:
     """The error for a failed step.  fmi2SetReal and fmi2GetReal have no side
     effect worth protecting, so they are repeated to find which call failed;
     if both pass, it was fmi2DoStep (its status was OR-ed with theirs)."""
     where = f"{unit.path.name}: at t = {t:.9g} s ({what} = {value:.9g})"
+    failed = "fmi2DoStep failed"
     for name, fn, vr, buf in (("fmi2SetReal", unit.set_real, unit.input_vr, u),
                               ("fmi2GetReal", unit.get_real, unit.output_vr, y)):
         status = fn(unit.component, vr, ctypes.c_size_t(1), buf)
         if status > 1:
-            return RuntimeError(f"{where}: {name} returned {_STATUS.get(status, status)}")
-    return RuntimeError(f"{where}: fmi2DoStep failed (see the FMU's log message above)")
+            failed = f"{name} returned {_STATUS.get(status, status)}"
+            break
+    last = f": {unit.messages[-1]}" if unit.messages else ""
+    return RuntimeError(f"{where}: {failed}{last}")
 
 
 @dataclass(frozen=True)

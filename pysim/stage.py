@@ -212,6 +212,8 @@ class DiscreteStage:
         """A function ``(step_s, prewarp_hz) -> DiscreteStage`` that converts
         ``system`` to state space once (for sweeps that change the step)."""
         as_siso(system)
+        if method not in METHODS:
+            raise ValueError(f"discretisation method must be one of {METHODS}, got {method!r}")
         matrices = _matrices(system)
         return lambda step_s, prewarp_hz=None: cls(system, step_s, method, prewarp_hz, matrices)
 

@@ -54,7 +54,7 @@ WAVEFORMS = ("triangles", "multisine", "steps")
 N_OPERATORS = 10
 SNR_RANGE = (4.0, 40.0)
 #: RMS of the drift's random-walk part relative to its polynomial part.
-DRIFT_WALK_SHARE = 0.05
+DRIFT_WALK_SHARE = 0.03
 
 
 @dataclass
@@ -211,11 +211,15 @@ def _drift_shape(rng, n, T):
     return poly + walk, {"degree": degree}
 
 
-def _visible(effect_um, columns, start):
-    """Part of ``effect_um`` (after ``start``) that the MPI regressors cannot absorb."""
+def _visible_rms(effect_um, columns, start):
+    """RMS of the part of ``effect_um`` (after ``start``) that the MPI regressors
+    cannot absorb: the smaller of its RMS over all those samples and over the
+    last 35 % of the record (where a held-out part would lie)."""
     A, e = columns[start:], effect_um[start:]
     coefficients, *_ = np.linalg.lstsq(A, e, rcond=None)
-    return e - A @ coefficients
+    visible = e - A @ coefficients
+    tail = visible[-int(0.35 * effect_um.size):]
+    return float(min(np.sqrt(np.mean(visible**2)), np.sqrt(np.mean(tail**2))))
 
 
 # ------------------------------------------------------------------ case
@@ -250,7 +254,7 @@ def make_case(seed: int, effect: str = None) -> SyntheticCase:
         else:
             shape, params = _drift_shape(rng, n, T)
         sigma = _log_uniform(rng, 1e-4, 3e-3) * span
-        unit_visible = np.sqrt(np.mean(_visible(shape, columns, start) ** 2))
+        unit_visible = _visible_rms(shape, columns, start)
         scale = snr * sigma / unit_visible
         clean = h + scale * shape
         visible_rms = snr * sigma
@@ -263,7 +267,7 @@ def make_case(seed: int, effect: str = None) -> SyntheticCase:
                 params = {"delay_samples": d}
             else:
                 clean, params = _rate_dependence(rng, h, T)
-            visible_rms = float(np.sqrt(np.mean(_visible(clean - h, columns, start) ** 2)))
+            visible_rms = _visible_rms(clean - h, columns, start)
             sigma = visible_rms / snr
             if 3e-5 * span <= sigma <= 1e-2 * span:
                 break

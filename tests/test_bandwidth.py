@@ -6,12 +6,13 @@ import control
 import numpy as np
 import pytest
 
-from fmu_fixtures import default_fmus, linear_fmus, linear_model  # noqa: F401  (fixtures)
 from models.default_mpi import MODEL
 from models.flexure_stage import STAGE
 from pysim.bandwidth import (crossing_frequency, default_frequencies, fundamental, measure_bandwidth,
                              settling_periods, stepped_sine, summary)
 from pysim.harness import CoSimulation, NominalDrive
+
+pytest_plugins = ["fmu_fixtures"]  # the FMUs, built once
 
 
 def test_fundamental_is_exact_for_a_sine_with_offset_and_harmonics(rng):

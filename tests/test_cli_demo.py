@@ -5,7 +5,8 @@ import sys
 
 import pytest
 
-from fmu_fixtures import default_fmus  # noqa: F401  (fixture)
+pytest_plugins = ["fmu_fixtures"]  # the FMUs, built once
+
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -79,3 +80,25 @@ def test_demo_refuses_an_output_path_that_is_a_file(tmp_path):
     result = pysim("demo", "--out", target)
     assert result.returncode == 2 and "is not a folder" in result.stderr
     assert target.read_text() == "keep me"
+
+
+def test_a_discrete_stage_must_match_the_step_and_cannot_be_swept(tmp_path):
+    stage = tmp_path / "discrete_stage.py"
+    stage.write_text("import control\nSTAGE = control.sample_system(control.tf([1.0], [1e-3, 1.0]), 1e-4)\n")
+    result = pysim("bandwidth", "--stage", stage)
+    assert result.returncode == 2 and "the stage is discrete, but a sweep changes the step" in result.stderr
+    result = pysim("track", "--stage", stage, "--step", "0.001")
+    assert result.returncode == 2 and "differs from the communication step (0.001 s)" in result.stderr
+    result = pysim("track", "--stage", stage, "--json")
+    assert result.returncode == 0, result.stderr
+    assert len(json.loads(result.stdout)["tracking"]) == 4
+
+
+def test_bandwidth_without_a_stage_is_flat_and_reports_no_crossing(default_fmus):
+    plant, inverse = default_fmus
+    result = pysim("bandwidth", "--json", "--stage", "none", "--plant", plant, "--inverse", inverse,
+                   "--amplitudes", "10")
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    assert data["bandwidth_hz"] == {"uncompensated": None, "compensated": None}
+    assert "stage_bandwidth_hz" not in data

@@ -1,5 +1,6 @@
 """The co-simulation harness against the Python model, python-control and itself run in pieces."""
 import math
+import re
 from pathlib import Path
 
 import control
@@ -7,13 +8,14 @@ import numpy as np
 import pytest
 
 from conftest import random_piecewise_monotone
-from fmu_fixtures import default_fmus, linear_fmus, linear_model  # noqa: F401  (fixtures)
 from models.default_mpi import MODEL
 from models.flexure_stage import STAGE
 from pysim.errors import UserError
 from pysim.harness import CoSimulation, NominalDrive
 from pysim.model import InverseCompensator
 from pysim.stage import discretise
+
+pytest_plugins = ["fmu_fixtures"]  # the FMUs, built once
 
 
 def test_plant_fmu_alone_equals_the_python_model(rng, default_fmus):
@@ -128,3 +130,27 @@ def test_bad_use_is_refused_with_a_clear_message(tmp_path, default_fmus):
             sim.reset(step_s=-1.0)
     with pytest.raises(ValueError, match="stage_start"):
         CoSimulation(plant, stage_start="moving")
+
+
+def test_a_failing_fmu_call_stops_the_run_with_the_fmus_own_message(default_fmus, capfd):
+    plant, inverse = default_fmus
+    with CoSimulation(plant, inverse) as sim:
+        sim.run([30.0, 31.0])
+        sim.plant._slave.terminate()          # from now on the plant refuses to step
+        with pytest.raises(RuntimeError, match=r"default_mpi_plant.fmu: at t = 0.0002 s \(voltage = [0-9.]+\): "
+                                               r"fmi2SetReal returned Error: .*not allowed"):
+            sim.run([32.0])
+    out, err = capfd.readouterr()
+    assert out == ""                          # stdout stays clean for JSON
+    assert re.search(r"plant(-\d+)? FMU \[Error\] fmi2SetReal: not allowed", err)
+
+
+def test_bad_stage_settings_are_refused_before_any_fmu_is_loaded(default_fmus, monkeypatch):
+    plant, _ = default_fmus
+    opened = []
+    monkeypatch.setattr("pysim.harness.FMUUnit", lambda *args: opened.append(args))
+    with pytest.raises(ValueError, match="method"):
+        CoSimulation(plant, stage=STAGE, stage_method="euler")
+    with pytest.raises(ValueError, match="Nyquist"):
+        CoSimulation(plant, stage=STAGE, step_s=1e-3, prewarp_hz=900.0)
+    assert opened == []

@@ -6,13 +6,14 @@ import control
 import numpy as np
 import pytest
 
-from fmu_fixtures import default_fmus  # noqa: F401  (fixture)
 from models.default_mpi import MODEL
 from models.flexure_stage import STAGE
 from pysim.harness import CoSimulation, NominalDrive
 from pysim.metrics import error_measures
 from pysim.stage import DiscreteStage
 from pysim.tracking import PAPER_TABLE_III, TABLE_III_AMPLITUDES_UM, format_table, table_iii_reference, track
+
+pytest_plugins = ["fmu_fixtures"]  # the FMUs, built once
 
 
 def test_table_iii_reference():

@@ -2,6 +2,7 @@
 which model, stage and FMUs make up the co-simulated chain."""
 from __future__ import annotations
 
+import math
 import sys
 from dataclasses import dataclass
 
@@ -46,14 +47,24 @@ def load_model(spec):
         raise UserError(str(exc)) from exc
 
 
-def open_chain(args, step_s: float = 1e-4) -> Chain:
-    """Load the model and stage, find or build the FMUs, open the co-simulation."""
+def open_chain(args, step_s: float = 1e-4, sweep: bool = False) -> Chain:
+    """Load the model and stage, find or build the FMUs, open the co-simulation.
+
+    ``sweep``: the step will change per frequency, which a discrete stage
+    cannot follow."""
     from pysim.harness import CoSimulation, NominalDrive, fmus_for_model
     from pysim.stage import load_stage
 
     if (args.plant is None) != (args.inverse is None):
         raise UserError("give both --plant and --inverse, or neither (to build them from the model)")
     stage = None if str(args.stage).lower() == "none" else load_stage(args.stage)
+    if stage is not None and stage.dt:
+        if sweep:
+            raise UserError(f"{args.stage}: the stage is discrete, but a sweep changes the step with the "
+                            "frequency: give the continuous stage")
+        if stage.dt is True or not math.isclose(stage.dt, step_s, rel_tol=1e-9):
+            raise UserError(f"{args.stage}: the discrete stage's dt ({stage.dt}) differs from the "
+                            f"communication step ({step_s} s)")
     model = None
     if args.model is not None or args.plant is None:
         model = load_model(args.model or DEFAULT_MODEL)

@@ -79,7 +79,7 @@ def run(args) -> int:
     from pysim.bandwidth import summary
     from pysim.progress import Progress
 
-    chain = open_chain(args)
+    chain = open_chain(args, sweep=True)
     try:
         with Progress(2 * len(args.amplitudes) * args.points, "sweeping") as progress:
             results = sweep(chain, args, progress)

@@ -42,7 +42,7 @@ def run(args) -> int:
     from pysim.tracking import TABLE_III_AMPLITUDES_UM, format_table, track
 
     start = time.monotonic()
-    chain = open_chain(args, step_s=args.step)
+    chain = open_chain(args, step_s=args.step, sweep=True)
     n_track = 2 * len(TABLE_III_AMPLITUDES_UM)
     n_sweep = 2 * len(args.amplitudes) * args.points
     try:

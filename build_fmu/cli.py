@@ -1,0 +1,47 @@
+"""``build-fmu SPEC [-o DIR] [--platforms ...]``: the command-line front end
+of :func:`build_fmu.build_fmus`."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from build_fmu.build import DEFAULT_PLATFORMS, build_fmus
+from build_fmu.compile import PLATFORMS, ToolchainError
+from pysim.errors import UserError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="build-fmu",
+        description="Build the FMI 2.0 co-simulation FMUs of a hysteresis model spec: "
+                    "<name>_plant.fmu (voltage in V -> displacement in um) and "
+                    "<name>_inverse.fmu (displacement_ref in um -> voltage in V).")
+    parser.add_argument("spec", help="spec file (.py defining MODEL), module, or name in models/")
+    parser.add_argument("-o", "--output", default=".", metavar="DIR", help="folder for the FMUs (default: .)")
+    parser.add_argument("--platforms", nargs="+", default=list(DEFAULT_PLATFORMS), choices=sorted(PLATFORMS),
+                        metavar="PLATFORM",
+                        help=f"binaries to build (default: all of {', '.join(DEFAULT_PLATFORMS)})")
+    parser.add_argument("--no-cache", action="store_true", help="compile everything again")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    return parser
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    progress = None if args.quiet else (lambda message: print(f"build-fmu: {message}", flush=True))
+    try:
+        build_fmus(args.spec, args.output, args.platforms, use_cache=not args.no_cache, progress=progress)
+    except UserError as exc:
+        print(f"build-fmu: error: {exc}", file=sys.stderr)
+        return 2
+    except ToolchainError as exc:
+        print(f"build-fmu: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("build-fmu: interrupted", file=sys.stderr)
+        return 130
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
