@@ -16,19 +16,19 @@ from pathlib import Path
 
 import numpy as np
 
+from bench_common import Row, at_most
 from pysim.data import MeasuredData, load_measured, save_measured
 from pysim.errors import DataError
 
+LOAD_LIMIT_S = 5.0
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--rows", type=int, default=1_000_000)
-    parser.add_argument("--limit", type=float, default=5.0, help="seconds allowed for the load")
-    args = parser.parse_args(argv)
 
+def measure(rows: int = 1_000_000) -> dict:
+    """Seconds to save and load a ``rows``-row record, and to find a bad cell
+    on its last line; ``message`` is the loader's error for that cell."""
     rng = np.random.default_rng(0)
-    t = np.arange(args.rows) / 5000.0
-    record = MeasuredData(t, 150 * np.sin(2 * np.pi * t), rng.normal(0, 20, args.rows), source="bench")
+    t = np.arange(rows) / 5000.0
+    record = MeasuredData(t, 150 * np.sin(2 * np.pi * t), rng.normal(0, 20, rows), source="bench")
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "big.csv"
         start = time.perf_counter()
@@ -42,18 +42,39 @@ def main(argv=None) -> int:
 
         with open(path, "a") as handle:
             handle.write(f"{float(t[-1]) + 1!r},oops,0\n")
+        message = "(no error raised)"
         start = time.perf_counter()
         try:
             load_measured(path)
         except DataError as exc:
-            message = str(exc)
+            message = str(exc).replace(folder, "<tmp>")
         bad = time.perf_counter() - start
+    return {"rows": rows, "save_s": saved, "load_s": loaded, "bad_cell_s": bad, "message": message}
 
-    print(f"{args.rows} rows: save {saved:.2f} s, load {loaded:.2f} s, "
-          f"bad cell on the last line found in {bad:.2f} s")
-    print(f"  message: {message.replace(folder, '<tmp>')}")
-    if loaded > args.limit:
-        print(f"FAIL: load took {loaded:.2f} s > {args.limit:.2f} s", file=sys.stderr)
+
+def rows_of(result: dict, limit: float = LOAD_LIMIT_S) -> list:
+    """Table rows; the load limit scales with the row count (5 s per million)."""
+    allowed = limit * result["rows"] / 1_000_000
+    target, met = at_most(result["load_s"], allowed, "s")
+    return [
+        Row("Measured data", f"load {result['rows']} rows", result["load_s"], "s", target, met),
+        Row("Measured data", f"save {result['rows']} rows", result["save_s"], "s"),
+        Row("Measured data", "bad cell on the last line found", result["bad_cell_s"], "s"),
+    ]
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--rows", type=int, default=1_000_000)
+    parser.add_argument("--limit", type=float, default=LOAD_LIMIT_S, help="seconds allowed for the load")
+    args = parser.parse_args(argv)
+
+    result = measure(args.rows)
+    print(f"{args.rows} rows: save {result['save_s']:.2f} s, load {result['load_s']:.2f} s, "
+          f"bad cell on the last line found in {result['bad_cell_s']:.2f} s")
+    print(f"  message: {result['message']}")
+    if result["load_s"] > args.limit:
+        print(f"FAIL: load took {result['load_s']:.2f} s > {args.limit:.2f} s", file=sys.stderr)
         return 1
     return 0
 

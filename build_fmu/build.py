@@ -110,8 +110,9 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
     if out_dir.exists() and not out_dir.is_dir():
         raise BuildError(f"{out_dir}: exists and is not a folder")
     lo, hi = model.voltage_range_V
-    say(f"loaded {source}: model {model.name}, {model.n_operators} {model.operator} operators, "
-        f"{lo:g} V to {hi:g} V")
+    what = f"{model.n_operators} {model.operator} operators, {lo:g} V to {hi:g} V"
+    say(f"loaded {source}: model {model.name}, {what}" if source != f"model {model.name}"
+        else f"model {model.name}: {what}")
     say(check_model(model, source))
 
     version = tool_version()

@@ -130,19 +130,10 @@ OSTAGE_API void ostage_init(const OutputStages *s, double h0, double u0, double 
     }
 }
 
-OSTAGE_API double ostage_output(const OutputStages *s, const double *state, double h,
-                                double u, double t, double *new_state)
+/* One sample for a checked spec; out is NULL or equal to state. */
+static double output_unchecked(const OutputStages *s, const double *state, double h,
+                               double u, double t, double *out)
 {
-    if (ostage_check(s) != OSTAGE_OK || state == NULL) {
-        return h;
-    }
-    double *out = new_state;
-    if (out != NULL && out != state) {
-        const size_t n = ostage_state_size(s);
-        for (size_t i = 0; i < n; i++) {
-            out[i] = state[i];
-        }
-    }
     size_t k = 0;
     double g = h;
     for (int i = 0; i < s->n_sections; i++) {
@@ -198,6 +189,22 @@ OSTAGE_API double ostage_output(const OutputStages *s, const double *state, doub
     return y;
 }
 
+OSTAGE_API double ostage_output(const OutputStages *s, const double *state, double h,
+                                double u, double t, double *new_state)
+{
+    if (ostage_check(s) != OSTAGE_OK || state == NULL) {
+        return h;
+    }
+    if (new_state != NULL && new_state != state) {
+        const size_t n = ostage_state_size(s);
+        for (size_t i = 0; i < n; i++) {
+            new_state[i] = state[i];
+        }
+        return output_unchecked(s, new_state, h, u, t, new_state);
+    }
+    return output_unchecked(s, state, h, u, t, new_state);
+}
+
 OSTAGE_API void ostage_run(const OutputStages *s, size_t n_samples, const double *h,
                            const double *u, const double *time, double *state, double *y)
 {
@@ -211,6 +218,6 @@ OSTAGE_API void ostage_run(const OutputStages *s, size_t n_samples, const double
             y[k] = h[k];
             continue;
         }
-        y[k] = ostage_output(s, state, h[k], u ? u[k] : 0.0, time ? time[k] : 0.0, state);
+        y[k] = output_unchecked(s, state, h[k], u ? u[k] : 0.0, time ? time[k] : 0.0, state);
     }
 }

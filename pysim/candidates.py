@@ -42,6 +42,10 @@ from pysim.identify import identify, regressors
 from pysim.model import HysteresisModel
 
 EFFECTS = ("rate_dependence", "creep", "delay", "drift")
+#: Training samples (the last before the split) on which shape parameters are searched.
+SEARCH_SAMPLES = 30000
+#: Samples before the search window from which the stages are run.
+SEARCH_PAD = 5000
 
 
 @dataclass
@@ -115,10 +119,19 @@ class CandidateFitter:
         self.design, _ = regressors(self.v, m.thresholds_V, operator, m.input_offset_V, model == "mpi")
         self.u = self.v - m.input_offset_V
         self.n_train = self.split - self.warmup
+        # Shape parameters are searched on at most SEARCH_SAMPLES training
+        # samples (the last ones): enough to pin a few parameters down, and it
+        # bounds the search cost for long records.  The stages run from
+        # SEARCH_PAD samples earlier so that their start-up has died out.
+        rows = min(self.n_train, SEARCH_SAMPLES)
+        self._search_rows = slice(self.split - rows, self.split)
+        self._search_from = max(0, self.split - rows - SEARCH_PAD)
+        self._search_design = np.asfortranarray(self.design[self._search_from:self.split])
 
     # ----------------------------------------------------------- helpers
-    def _train_sse(self, columns) -> float:
-        """Training sum of squared errors of the unconstrained least-squares fit.
+    @staticmethod
+    def _lsq_sse(A, y) -> float:
+        """Sum of squared errors of the unconstrained least-squares fit of y by A.
 
         Solved through the normal equations of the norm-scaled columns: a
         p × p system, far cheaper than a factorisation of the tall matrix in a
@@ -126,8 +139,6 @@ class CandidateFitter:
         optimum, so their small rounding error hardly moves it.  The final fits
         are the exact ones of :func:`pysim.identify.identify`.
         """
-        rows = slice(self.warmup, self.split)
-        A, y = columns[rows], self.y[rows]
         scale = np.sqrt(np.einsum("ij,ij->j", A, A))
         scale[scale == 0] = 1.0
         As = A / scale
@@ -138,6 +149,14 @@ class CandidateFitter:
             theta = np.linalg.lstsq(gram, rhs, rcond=None)[0]
         residual = y - As @ theta
         return float(residual @ residual)
+
+    def _search_sse(self, stages: OutputStages) -> float:
+        """Training error of the unconstrained fit with ``stages`` after the
+        hysteresis, on the search window."""
+        columns = stages.apply_to_columns(self._search_design)
+        offset = self._search_from
+        rows = slice(self._search_rows.start - offset, self._search_rows.stop - offset)
+        return self._lsq_sse(columns[rows], self.y[self._search_rows])
 
     def _model(self, hysteresis: HysteresisModel, **stages) -> ExtendedModel:
         base = {f.name: getattr(hysteresis, f.name) for f in fields(HysteresisModel) if f.init}
@@ -158,43 +177,45 @@ class CandidateFitter:
 
     # --------------------------------------------------- rate dependence
     def _sections_sse(self, sections) -> float:
-        return self._train_sse(OutputStages(sections).apply_to_columns(self.design))
+        return self._search_sse(OutputStages(sections))
 
     def rate_dependence(self) -> CandidateFit:
-        T, n = self.T, self.n_train
-        # first order: τ from one sample to 1/20 of the training part
-        log_tau = np.linspace(0.0, math.log(max(2.0, min(5000.0, n / 20.0))), 25)
+        T = self.T
+        rows = self._search_rows.stop - self._search_rows.start
+        fs = 1.0 / T
+        # first order: τ from one sample to 1/20 of the search window (log grid, then Brent)
+        log_tau = np.linspace(0.0, math.log(max(2.0, rows / 20.0)), 16)
 
         def first(x):
             return self._sections_sse([tustin_first_order(math.exp(x) * T, T)])
 
         scores = [first(x) for x in log_tau]
         i = int(np.argmin(scores))
-        lo, hi = log_tau[max(i - 1, 0)], log_tau[min(i + 1, log_tau.size - 1)]
-        best1 = scipy.optimize.minimize_scalar(first, bounds=(lo, hi), method="bounded",
-                                               options={"xatol": 1e-3})
-        x1, sse1 = (best1.x, best1.fun) if best1.fun < scores[i] else (log_tau[i], scores[i])
+        bounds = (log_tau[max(i - 1, 0)], log_tau[min(i + 1, log_tau.size - 1)])
+        refined = scipy.optimize.minimize_scalar(first, bounds=bounds, method="bounded",
+                                                 options={"xatol": 2e-3})
+        x1, sse1 = (refined.x, refined.fun) if refined.fun < scores[i] else (log_tau[i], scores[i])
 
-        # second order: natural frequency from the record's slow end to a third of fs
-        fs = 1.0 / T
-        f_lo = max(fs / 3000.0, 20.0 / (n * T))
-        log_f = np.linspace(math.log(f_lo), math.log(fs / 3.0), 18)
-        log_z = np.log([0.03, 0.07, 0.15, 0.3, 0.5, 0.7, 1.0, 1.5])
+        # second order: natural frequency from 20 cycles per window to fs/3 (log grid, then Nelder-Mead)
+        log_f = np.linspace(math.log(max(fs / 3000.0, 20.0 * fs / rows)), math.log(fs / 3.0), 12)
+        log_z = np.log([0.05, 0.15, 0.35, 0.7, 1.2])
+        z_range = (math.log(0.005), math.log(5.0))
+
+        def clip(x):
+            return (math.exp(min(max(x[0], log_f[0] - 1.0), log_f[-1])),
+                    math.exp(min(max(x[1], z_range[0]), z_range[1])))
 
         def second(x):
-            f, z = math.exp(min(x[0], log_f[-1])), math.exp(min(max(x[1], math.log(0.005)), math.log(5.0)))
-            return self._sections_sse([tustin_second_order(f, z, T)])
+            return self._sections_sse([tustin_second_order(*clip(x), T)])
 
-        grid = [(second((a, b)), a, b) for a in log_f for b in log_z]
-        sse2, a, b = min(grid)
+        sse2, a, b = min((second((a, b)), a, b) for a in log_f for b in log_z)
         refined = scipy.optimize.minimize(second, x0=[a, b], method="Nelder-Mead",
-                                          options={"xatol": 1e-3, "fatol": 1e-12 * sse2, "maxfev": 120})
+                                          options={"xatol": 2e-3, "fatol": 1e-9 * sse2, "maxfev": 60,
+                                                   "initial_simplex": [[a, b], [a + 0.3, b], [a, b + 0.4]]})
         if refined.fun < sse2:
             sse2, (a, b) = refined.fun, refined.x
-        f2 = math.exp(min(a, log_f[-1]))
-        z2 = math.exp(min(max(b, math.log(0.005)), math.log(5.0)))
+        f2, z2 = clip((a, b))
 
-        rows = self.n_train
         if _bic(sse2, rows, 2) < _bic(sse1, rows, 1):
             stages = {"resonance_hz": f2, "damping_ratio": z2}
             parameters = {"order": 2, "natural_frequency_hz": f2, "damping_ratio": z2}
@@ -208,12 +229,18 @@ class CandidateFitter:
         return self._finish("rate_dependence", result, parameters, **stages)
 
     # ------------------------------------------------------------- delay
-    def max_delay(self) -> int:
-        return int(min(500, max(5, self.n_train // 20)))
+    def max_delay(self, period_samples: float = None) -> int:
+        """Longest delay searched (samples): 1/20 of the training part, at most
+        500, and for a periodic input at most a quarter period (a whole period
+        of delay would only replay the previous cycle)."""
+        limit = min(500, max(5, self.n_train // 20))
+        if period_samples:
+            limit = min(limit, max(1, int(period_samples / 4)))
+        return int(limit)
 
-    def delay(self) -> CandidateFit:
-        dmax = self.max_delay()
-        first = self.warmup
+    def delay(self, period_samples: float = None) -> CandidateFit:
+        dmax = self.max_delay(period_samples)
+        first = max(self.warmup, self._search_rows.start)
         stop = self.split - dmax
         if stop - first < self.design.shape[1] + 1:
             raise ValueError("training part too short for the delay search")
@@ -226,13 +253,11 @@ class CandidateFitter:
         d_best = int(np.argmin(sse))
 
         def fractional(x):
-            return self._train_sse(OutputStages(delay_samples=x).apply_to_columns(self.design))
+            return self._search_sse(OutputStages(delay_samples=x))
 
-        bounds = (max(0.0, d_best - 1.0), d_best + 1.0)
-        refined = scipy.optimize.minimize_scalar(fractional, bounds=bounds, method="bounded",
-                                                 options={"xatol": 1e-3})
-        at_whole = fractional(float(d_best))
-        delay = float(refined.x) if refined.fun < at_whole else float(d_best)
+        refined = scipy.optimize.minimize_scalar(fractional, bounds=(max(0.0, d_best - 1.0), d_best + 1.0),
+                                                 method="bounded", options={"xatol": 1e-3})
+        delay = float(refined.x) if refined.fun < fractional(float(d_best)) else float(d_best)
         result = self._fit(warmup=self.warmup + math.ceil(delay),
                            column_transform=OutputStages(delay_samples=delay).apply_to_columns)
         return self._finish("delay", result, {"delay_samples": delay, "delay_s": delay * self.T},
@@ -281,7 +306,11 @@ class CandidateFitter:
         parameters = {"degree": degree, "coefficients_um_per_s_power": list(coefficients)}
         return self._finish("drift", result, parameters, drift_coefficients=coefficients)
 
-    def fit(self, cause: str) -> CandidateFit:
+    def fit(self, cause: str, period_samples: float = None) -> CandidateFit:
+        """Fit one effect of :data:`EFFECTS` (``period_samples``: the input's
+        period, if periodic, which bounds the delay search)."""
         if cause not in EFFECTS:
             raise ValueError(f"unknown effect {cause!r}; the catalog is {EFFECTS}")
+        if cause == "delay":
+            return self.delay(period_samples)
         return getattr(self, cause)()

@@ -94,8 +94,9 @@ class Split:
 def input_period(voltage_V) -> float | None:
     """Period (samples) of a periodic input, or None.
 
-    The first peak of the autocorrelation after its first zero crossing counts
-    when it exceeds 0.9 and at least three periods fit in the record.
+    The first peak of the autocorrelation after its first zero crossing that
+    exceeds 0.9 (and is within 2 % of the highest such peak) counts, when at
+    least three periods fit in the record.
     """
     x = np.asarray(voltage_V, dtype=float)
     x = x - x.mean()
@@ -112,9 +113,13 @@ def input_period(voltage_V) -> float | None:
     stop = n // 3
     if stop <= start + 1:
         return None
-    k = start + int(np.argmax(acf[start:stop]))
-    if acf[k] < _PERIODIC_CORRELATION or k + 1 >= n:
+    window = acf[start:stop]
+    peaks = np.flatnonzero((window[1:-1] >= window[:-2]) & (window[1:-1] >= window[2:])
+                           & (window[1:-1] >= _PERIODIC_CORRELATION)) + 1
+    if peaks.size == 0:
         return None
+    # the first strong peak: later ones are multiples of the period
+    k = start + int(peaks[np.argmax(window[peaks] >= 0.98 * window[peaks].max())])
     # parabolic interpolation of the peak
     a, b, c = acf[k - 1], acf[k], acf[k + 1]
     shift = 0.5 * (a - c) / (a - 2 * b + c) if (a - 2 * b + c) != 0 else 0.0
@@ -232,7 +237,7 @@ class Diagnosis:
                 "reason": self.reasons[cause],
             }
         span = self.heldout_span_um
-        return {
+        return _plain({
             "source": self.source,
             "cause": self.cause,
             "evidence": {
@@ -248,7 +253,7 @@ class Diagnosis:
             "extended": {"rms_pct": self.extended.rms_pct, "max_pct": self.extended.max_pct,
                          "cause": self.extended.cause, "parameters": _plain(self.extended.fit.parameters)},
             "gain_pct": self.gain_pct,
-        }
+        })
 
 
 def _plain(value):
@@ -349,7 +354,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         fitter = CandidateFitter(v, y, T, split.warmup, split.split, n_operators=n_operators, model=model,
                                  operator=operator, name=name, description=description)
         baseline = _evaluate(fitter.baseline(), y, split)
-        candidates = {cause: _evaluate(fitter.fit(cause), y, split) for cause in EFFECTS}
+        candidates = {cause: _evaluate(fitter.fit(cause, split.period_samples), y, split) for cause in EFFECTS}
     except IdentificationError as exc:
         raise DataError(f"{where}{exc}") from exc
 
@@ -359,7 +364,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         ev.gain_pct = 100.0 * (1.0 - ev.rms_um / baseline.rms_um) if baseline.rms_um > 0 else 0.0
         removed = baseline.rms_um**2 - ev.rms_um**2
         ev.excess_over_noise = removed / noise**2 if noise > 0 else (math.inf if removed > 0 else 0.0)
-        ev.significant = ev.excess_over_noise >= NOISE_FRACTION and ev.gain_pct >= MIN_GAIN_PCT
+        ev.significant = bool(ev.excess_over_noise >= NOISE_FRACTION and ev.gain_pct >= MIN_GAIN_PCT)
 
     held = split.heldout
     stats = residual_statistics(residual[held], v[held], sample_rate_hz, noise)
@@ -376,12 +381,19 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         why = (f"{cause} lowers the held-out RMS error the most: {baseline.rms_pct:.3g} % → "
                f"{winner.rms_pct:.3g} % of range ({winner.gain_pct:.1f} % less, {winner.excess_over_noise:.3g} σ² "
                f"of mean-square error removed, σ = {noise:.3g} µm)")
+        ties = [ev for ev in close if ev is not winner]
         if winner is not best:
             why += (f"; {best.cause} reaches {best.rms_pct:.3g} %, but within the noise margin "
                     f"({NOISE_FRACTION} σ²) with more parameters, so the simpler {cause} is named")
         elif runner is not None:
             why += (f"; next best {runner.cause} reaches {runner.rms_pct:.3g} % "
                     f"({runner.gain_pct:.1f} % less)")
+        if ties:
+            why += (f". Caution: {', '.join(ev.cause for ev in ties)} "
+                    f"{'fits' if len(ties) == 1 else 'fit'} as well within the noise margin, so this "
+                    f"record cannot tell them apart (a single-frequency input, for one, shows a lag, a "
+                    f"delay and creep alike as a phase shift): record with steps or several frequencies "
+                    f"to separate them")
     else:
         cause, extended = "none", baseline
         best = ranked[0]

@@ -195,13 +195,22 @@ class OutputStages:
     def apply_to_columns(self, columns) -> np.ndarray:
         """Run every column of an (N, p) array through the stages on its own, each
         starting at rest at its first value.  For linear stages without creep or
-        drift this is the design-matrix transform of :func:`pysim.identify.identify`."""
-        columns = np.asarray(columns, dtype=float)
+        drift this is the design-matrix transform of :func:`pysim.identify.identify`.
+
+        Returns a column-major (Fortran-ordered) array; column-major input is
+        processed without copies.
+        """
         if self.creep_weights.size or self.drift.size:
             raise ValueError("only linear dynamics and delay act on design-matrix columns")
-        out = np.empty_like(columns)
+        columns = np.asfortranarray(columns, dtype=np.float64)
+        out = np.empty_like(columns, order="F")
+        lib, stages = _library(), ctypes.byref(self._struct)
+        n, state_size = columns.shape[0], self.state_size
         for j in range(columns.shape[1]):
-            out[:, j], _ = self.run(columns[:, j])
+            column, target = columns[:, j], out[:, j]
+            state = self.rest_state(column[0] if n else 0.0, 0.0) if state_size else np.zeros(0)
+            lib.ostage_run(stages, n, _kernel.as_pointer(column), None, None, _kernel.as_pointer(state),
+                           _kernel.as_pointer(target))
         return out
 
 

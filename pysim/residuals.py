@@ -70,9 +70,10 @@ def input_changes(voltage_V, tolerance_V: float):
     direction = 0             # +1 rising, -1 falling, 0 not yet known
     for k in range(1, v.size):
         x = v[k]
-        if direction >= 0 and x > v[top]:
+        # the last sample at an extreme: after a hold the change is where the input leaves it
+        if direction >= 0 and x >= v[top]:
             top = k
-        if direction <= 0 and x < v[bottom]:
+        if direction <= 0 and x <= v[bottom]:
             bottom = k
         if direction >= 0 and x < v[top] - tolerance_V:
             if direction > 0:
@@ -143,19 +144,30 @@ def cross_correlation(residual, signal, max_lag: int):
     return lags, rho
 
 
-def spectrum(residual, sample_rate_hz: float):
-    """Welch power spectral density (µm²/Hz) of a residual: ``(frequency_hz, psd)``."""
+def spectrum(residual, sample_rate_hz: float, segments: int = 4):
+    """Welch power spectral density (µm²/Hz) of a residual: ``(frequency_hz, psd)``.
+
+    About ``segments`` Hann-windowed segments with half overlap: a coarse
+    frequency grid (sample rate × segments / length) but a steadier estimate.
+    """
     r = np.asarray(residual, dtype=float)
-    nperseg = int(min(r.size, max(256, 2 ** int(np.log2(max(r.size // 8, 1))))))
+    nperseg = int(max(min(r.size, 16), 2 * r.size // (segments + 1)))
     return scipy.signal.welch(r - np.mean(r), fs=sample_rate_hz, nperseg=nperseg)
 
 
 def dominant_frequency(signal, sample_rate_hz: float) -> float:
-    """Frequency (Hz) of the largest spectral peak of ``signal`` (its mean removed)."""
-    f, p = spectrum(signal, sample_rate_hz)
-    if f.size < 2:
+    """Frequency (Hz) of the largest peak of the Hann-windowed periodogram of
+    ``signal`` (its mean removed), refined by parabolic interpolation."""
+    x = np.asarray(signal, dtype=float)
+    if x.size < 8:
         return 0.0
-    return float(f[1 + int(np.argmax(p[1:]))])
+    power = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(x.size))) ** 2
+    k = 1 + int(np.argmax(power[1:]))
+    shift = 0.0
+    if 1 < k < power.size - 1:
+        a, b, c = np.log(power[k - 1:k + 2] + 1e-300)
+        shift = 0.5 * (a - c) / (a - 2 * b + c) if a - 2 * b + c != 0 else 0.0
+    return float((k + shift) * sample_rate_hz / x.size)
 
 
 def residual_statistics(residual_um, voltage_V, sample_rate_hz: float, noise_um: float) -> dict:
@@ -192,8 +204,9 @@ def residual_statistics(residual_um, voltage_V, sample_rate_hz: float, noise_um:
         Share of the residual power below a fifth of the input's dominant
         frequency (drift lives there).
     ``peak_frequency_hz``, ``peak_over_median``
-        Largest spectral peak above twice the input's dominant frequency and
-        its height over the median of the spectrum (ringing).
+        Largest spectral peak above twice the input's dominant frequency, away
+        from its harmonics, and its height over the median of the spectrum
+        there (ringing).
     """
     r = np.asarray(residual_um, dtype=float)
     v = np.asarray(voltage_V, dtype=float)
@@ -212,7 +225,13 @@ def residual_statistics(residual_um, voltage_V, sample_rate_hz: float, noise_um:
     f, p = spectrum(r, sample_rate_hz)
     f_input = dominant_frequency(v, sample_rate_hz)
     low = f <= max(f_input / 5.0, f[1] if f.size > 1 else 0.0)
-    high = f > 2.0 * f_input
+    # ringing shows between the input's harmonics (a loop-shape error sits on them)
+    df = f[1] - f[0] if f.size > 1 else 0.0
+    harmonic = np.zeros(f.size, dtype=bool)
+    if f_input > 0:
+        order = np.round(f / f_input)
+        harmonic = (order >= 1) & (np.abs(f - order * f_input) <= max(1.5 * df, 0.05 * f_input))
+    high = (f > 2.0 * f_input) & ~harmonic
     peak_f, peak_ratio = 0.0, 0.0
     if np.count_nonzero(high) > 3:
         i = int(np.argmax(np.where(high, p, -np.inf)))

@@ -210,7 +210,7 @@ class RawFMU:
 
     def deserialize(self, c, blob: bytes):
         state = ctypes.c_void_p()
-        buffer = ctypes.create_string_buffer(blob, len(blob)) if blob else None
+        buffer = ctypes.create_string_buffer(blob, max(len(blob), 1))
         status = self.lib.fmi2DeSerializeFMUstate(c, buffer, len(blob), ctypes.byref(state))
         return status, state
 

@@ -1,0 +1,228 @@
+"""Diagnosis: the hidden-effect benchmark on seeded synthetic records, the
+train/held-out split, the residual statistics, and the command line.
+
+The core test: ``tests/synthetic.py`` hides one effect (or none) in an MPI
+plant's output; ``diagnose`` is not told which.  For every seed the named
+cause must be the hidden one, ``none`` must never be called an effect, and
+the extended model must cut the held-out RMS error by at least 50 % when an
+effect is present.  The confusion matrix is printed (``pytest -s``) and
+written to the terminal report.
+"""
+import json
+import subprocess
+import sys
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pysim.data import MeasuredData, save_measured, shipped_dataset
+from pysim.diagnose import CAUSES, diagnose, input_period, split_record
+from pysim.extended import ExtendedModel
+from pysim.residuals import (cross_correlation, dominant_frequency, input_changes, noise_sigma,
+                             time_since_change)
+from pysim.spec import load_spec
+from synthetic import EFFECTS, make_case
+
+SEEDS = range(60)
+MIN_GAIN_PCT = 50.0
+
+
+@pytest.fixture(scope="module")
+def outcomes():
+    """Hidden effect, named cause and gain for every seed (diagnosed once)."""
+    table = {}
+    for seed in SEEDS:
+        case = make_case(seed)
+        result = diagnose(case.voltage_V, case.displacement_um, case.sample_rate_hz)
+        table[seed] = (case, result)
+    return table
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_hidden_effect_is_named_and_removed(outcomes, seed):
+    case, result = outcomes[seed]
+    detail = (f"seed {seed}: hidden {case.effect} ({case.waveform}, SNR {case.snr:.1f}, {case.parameters}); "
+              f"named {result.cause}: {result.why}")
+    assert result.cause == case.effect, detail
+    if case.effect == "none":
+        assert result.gain_pct == 0.0 and result.extended.fit.cause == "baseline"
+    else:
+        assert result.gain_pct >= MIN_GAIN_PCT, detail
+        # the extended model is the spec of the named effect, simulated over the whole record
+        model = result.extended.model
+        assert isinstance(model, ExtendedModel) and model.has_stages
+        np.testing.assert_allclose(model.simulate(case.voltage_V), result.extended.prediction_um, atol=1e-9)
+
+
+def _matrix_text(counts: Counter) -> str:
+    width = max(len(c) for c in CAUSES) + 2
+    lines = ["confusion matrix (rows: hidden effect, columns: named cause)",
+             " " * width + "".join(f"{c:>{width}}" for c in CAUSES)]
+    for hidden in CAUSES:
+        lines.append(f"{hidden:<{width}}" + "".join(f"{counts[(hidden, named)]:>{width}}" for named in CAUSES))
+    return "\n".join(lines)
+
+
+def test_confusion_matrix(outcomes, request):
+    counts = Counter((case.effect, result.cause) for case, result in outcomes.values())
+    gains = {effect: [r.gain_pct for c, r in outcomes.values() if c.effect == effect] for effect in EFFECTS}
+    text = _matrix_text(counts) + "\n" + "\n".join(
+        f"held-out RMS gain, {effect}: min {min(g):.1f} %, median {np.median(g):.1f} %"
+        for effect, g in gains.items() if effect != "none" and g)
+    print("\n" + text)
+    reporter = request.config.pluginmanager.get_plugin("terminalreporter")
+    if reporter is not None:
+        reporter.write_line("")
+        for line in text.splitlines():
+            reporter.write_line(line)
+    # every class is drawn often enough to mean something, and none is never called an effect
+    per_effect = Counter(case.effect for case, _ in outcomes.values())
+    assert all(per_effect[effect] >= 6 for effect in EFFECTS), per_effect
+    assert sum(counts[("none", named)] for named in CAUSES if named != "none") == 0
+    assert sum(n for (hidden, named), n in counts.items() if hidden == named) == len(SEEDS)
+
+
+def test_synthetic_magnitudes_are_as_documented():
+    for seed in range(15):
+        case = make_case(seed)
+        span = np.ptp(case.clean_um)
+        if case.effect == "none":
+            assert case.visible_rms_um == 0.0
+        else:
+            assert 4.0 <= case.snr <= 40.0
+            assert case.visible_rms_um == pytest.approx(case.snr * case.noise_um, rel=1e-9)
+        assert case.noise_um <= 0.01 * span
+        assert np.std(case.displacement_um - case.clean_um) == pytest.approx(case.noise_um, rel=0.1)
+    assert make_case(3).displacement_um.tobytes() == make_case(3).displacement_um.tobytes()
+
+
+# --------------------------------------------------------------------- split
+
+def test_periodic_input_is_split_on_whole_periods():
+    n, period = 20000, 400.0
+    v = 50 + 50 * np.sin(2 * np.pi * np.arange(n) / period)
+    split = split_record(v, 0.65)
+    assert split.period_samples == pytest.approx(period, rel=1e-3)
+    cycles = (split.split - split.warmup) / period
+    assert abs(cycles - round(cycles)) < 0.01
+    assert abs(split.split - (split.warmup + 0.65 * (n - split.warmup))) <= period / 2 + 1
+
+
+def test_aperiodic_input_is_split_at_the_fraction(rng):
+    v = np.concatenate(([0.0, 100.0], 50 + 40 * np.tanh(np.cumsum(rng.normal(size=9998)) / 30)))
+    split = split_record(v, 0.6)
+    assert split.period_samples is None
+    assert split.warmup == 1
+    assert split.split == round(1 + 0.6 * (v.size - 1))
+
+
+def test_late_warmup_is_refused():
+    v = np.concatenate((np.linspace(20, 80, 9000), [0.0, 100.0], np.full(999, 50.0)))
+    with pytest.raises(ValueError, match="give the warm-up explicitly"):
+        split_record(v)
+
+
+def test_input_period_of_a_sine_and_of_noise(rng):
+    assert input_period(np.sin(2 * np.pi * np.arange(5000) / 123.4)) == pytest.approx(123.4, rel=2e-3)
+    assert input_period(rng.normal(size=5000)) is None
+
+
+# --------------------------------------------------------------- residuals
+
+def test_noise_sigma_ignores_a_smooth_error(rng):
+    t = np.linspace(0, 10, 20000)
+    residual = 3.0 * np.sin(2 * np.pi * 0.5 * t) + rng.normal(scale=0.2, size=t.size)
+    assert noise_sigma(residual) == pytest.approx(0.2, rel=0.05)
+    assert noise_sigma(np.round(np.zeros(100), 3), quantum_um=0.012) == pytest.approx(0.012 / np.sqrt(12))
+
+
+def test_input_changes_finds_reversals_and_steps():
+    v = np.concatenate((np.linspace(0, 10, 11), np.linspace(9, 2, 8), np.full(5, 2.0), np.full(5, 8.0)))
+    index, direction = input_changes(v, 0.5)
+    assert index.tolist() == [10, 23]            # top; bottom where the input leaves its hold
+    assert direction.tolist() == [-1.0, 1.0]
+    elapsed, sign = time_since_change(v, 0.1, 0.5)
+    assert np.isnan(elapsed[:10]).all() and elapsed[12] == pytest.approx(0.2) and sign[12] == -1
+    steps = np.repeat([0.0, 5.0, 6.0, 1.0], 10)
+    index, direction = input_changes(steps, 0.2)
+    found = dict(zip(index.tolist(), direction.tolist()))
+    assert found[10] == 1.0 and found[30] == -1.0 and 20 not in found
+
+
+def test_cross_correlation_finds_the_lag(rng):
+    x = np.convolve(rng.normal(size=3000), np.ones(20) / 20, mode="same")
+    lagged = np.concatenate((np.zeros(7), x[:-7]))
+    lags, rho = cross_correlation(lagged, x, 30)
+    assert lags[np.argmax(rho)] == 7 and rho.max() > 0.95
+
+
+def test_dominant_frequency():
+    t = np.arange(10000) / 2000.0
+    assert dominant_frequency(1 + np.sin(2 * np.pi * 13.3 * t), 2000.0) == pytest.approx(13.3, rel=5e-3)
+
+
+# ------------------------------------------------------------ command line
+
+def _write_case(tmp_path, seed) -> Path:
+    case = make_case(seed)
+    return save_measured(MeasuredData(case.time_s, case.voltage_V, case.displacement_um, "synthetic"),
+                         tmp_path / f"case{seed}.csv")
+
+
+def _pysim(*args):
+    return subprocess.run([sys.executable, "-m", "pysim.cli", "diagnose", *map(str, args)],
+                          capture_output=True, text=True)
+
+
+def test_cli_json_report_and_spec(tmp_path):
+    seed = next(s for s in SEEDS if make_case(s).effect == "delay")
+    data = _write_case(tmp_path, seed)
+    report, spec = tmp_path / "report", tmp_path / "delayed_plant.py"
+    run = _pysim(data, "--json", "--report", report, "--out", spec)
+    assert run.returncode == 0, run.stderr
+    out = json.loads(run.stdout)
+    assert set(out) >= {"cause", "evidence", "baseline", "extended", "gain_pct"}
+    assert out["cause"] == "delay"
+    assert out["gain_pct"] == pytest.approx(100 * (1 - out["extended"]["rms_pct"] / out["baseline"]["rms_pct"]))
+    assert set(out["evidence"]["candidates"]) == set(EFFECTS) - {"none"}
+    names = {p.name for p in report.iterdir()}
+    assert {"summary.md", "diagnosis.json", "overview.png", "spectrum.png", "cross_correlation.png",
+            "residual_vs_rate.png", "residual_vs_time_since_change.png", "candidates.png", "loops.png"} <= names
+    assert all((report / n).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for n in names if n.endswith(".png"))
+    assert "Cause named: `delay`" in (report / "summary.md").read_text(encoding="utf-8")
+    model = load_spec(spec)
+    assert isinstance(model, ExtendedModel) and model.name == "delayed_plant"
+    assert model.delay_samples == pytest.approx(make_case(seed).parameters["delay_samples"], abs=0.05)
+
+
+def test_cli_text_on_shipped_data():
+    run = _pysim(shipped_dataset("discrete_backlash"))
+    assert run.returncode == 0, run.stderr
+    assert "cause" in run.stdout and "gain" in run.stdout
+
+
+@pytest.mark.parametrize("args, message", [
+    (["missing.csv"], "missing.csv"),
+    (["{data}", "--train-fraction", "0.99"], "--train-fraction"),
+    (["{data}", "--out", "{tmp}/no/such/folder/spec.py"], "does not exist"),
+    (["{data}", "--name", "not an identifier"], "C identifier"),
+    (["{data}", "--warmup", "soon"], "--warmup"),
+])
+def test_cli_bad_input_exits_2_and_writes_nothing(tmp_path, args, message):
+    data = _write_case(tmp_path, 0)
+    before = set(tmp_path.rglob("*"))
+    run = _pysim(*[a.format(data=data, tmp=tmp_path) for a in args])
+    assert run.returncode == 2
+    assert message in run.stderr and len(run.stderr.strip().splitlines()) == 1
+    assert set(tmp_path.rglob("*")) == before
+
+
+def test_cli_constant_record_is_a_clear_error(tmp_path):
+    n = 500
+    data = save_measured(MeasuredData(np.arange(n) * 1e-3, np.full(n, 5.0), np.zeros(n), "flat"),
+                         tmp_path / "flat.csv")
+    run = _pysim(data, "--report", tmp_path / "report")
+    assert run.returncode == 2 and "flat.csv" in run.stderr
+    assert not (tmp_path / "report").exists()
