@@ -56,23 +56,30 @@ SPEED_TARGET = 1000.0
 
 # ------------------------------------------------------------------ data
 def synthetic_record(n_samples: int, noise_um: float = 0.05, samples_per_period: int = 500, seed: int = 0):
-    """Voltage (V) and displacement (µm) of the default model driven by two
-    cosines whose amplitude decays from the full range to a fifth of it
-    (major and minor loops), plus white noise of ``noise_um``."""
+    """Voltage (V) and displacement (µm) of the default model.
+
+    The input first sweeps the full voltage range once (0 V -> 150 V -> 0 V,
+    a cosine), then follows two cosines whose amplitude decays from the full
+    range to a fifth of it (major and minor loops).  White noise of
+    ``noise_um`` is added to the displacement.  The record spans exactly the
+    model's voltage range, so eq. 13 over the record gives the model's own
+    thresholds.
+    """
     from models.default_mpi import MODEL
 
     t = np.arange(n_samples) / samples_per_period
     lo, hi = MODEL.voltage_range_V
     amplitude = 1.0 - 0.8 * np.arange(n_samples) / max(n_samples - 1, 1)
-    shape = 0.8 * np.cos(2 * np.pi * t) + 0.2 * np.cos(2 * np.pi * 5.3 * t)
-    voltage = lo + (hi - lo) * 0.5 * (1.0 - amplitude * shape)
+    shape = amplitude * (0.8 * np.cos(2 * np.pi * t) + 0.2 * np.cos(2 * np.pi * 5.3 * t))
+    shape[t < 1.0] = np.cos(2 * np.pi * t[t < 1.0])
+    voltage = lo + (hi - lo) * 0.5 * (1.0 - shape)
     displacement = MODEL.simulate(voltage)
     if noise_um > 0:
         displacement = displacement + np.random.default_rng(seed).normal(0.0, noise_um, n_samples)
     return voltage, displacement
 
 
-def datasets(quick: bool) -> dict:
+def datasets() -> dict:
     """``{name: (voltage_V, displacement_um)}``: the shipped records and a
     synthetic one."""
     from pysim.data import SHIPPED_DATASETS, load_measured, shipped_dataset
@@ -268,7 +275,7 @@ def scaling(lengths, repeat: int) -> dict:
 def measure(quick: bool = False, lengths=RECORD_LENGTHS, records=None) -> dict:
     particles, iterations, seeds = PSO_BUDGET["quick" if quick else "full"]
     repeat = 5 if quick else 11
-    records = datasets(quick) if records is None else records
+    records = datasets() if records is None else records
     return {
         "pso_budget": {"particles": particles, "iterations": iterations, "seeds": seeds, "options": PSO_OPTIONS},
         "records": {name: compare(name, v, y, particles, iterations, seeds, repeat)
@@ -293,14 +300,16 @@ def rows(result: dict) -> list:
             target, met = (target + ", error <= PSO's", met and no_worse) if variant in TARGET_VARIANTS else ("", None)
             out.append(Row("Identification", f"{name}: PSO ({variant}) / ours", ratio, "x", target, met,
                            f"PSO {t_pso:.2f} s, RMS {min(p['rms_error_pct']):.3f}..{max(p['rms_error_pct']):.3f} %, "
-                           f"max {min(p['max_error_pct']):.3f}..{max(p['max_error_pct']):.3f} %"))
+                           f"max {min(p['max_error_pct']):.3f}..{max(p['max_error_pct']):.3f} %; our error "
+                           f"{'no larger' if no_worse else 'LARGER'}"))
     for n, t in result["scaling"].items():
         out.append(Row("Identification", f"ours, synthetic record of {n} samples", t["median_s"] * 1e3, "ms",
                        note=f"best {t['best_s'] * 1e3:.1f}, worst {t['worst_s'] * 1e3:.1f} ms"))
     return out
 
 
-def _json_ready(result: dict) -> dict:
+def json_ready(result: dict) -> dict:
+    """``result`` with only JSON types (record-length keys become strings)."""
     return json.loads(json.dumps(result, default=str))
 
 
@@ -311,7 +320,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     result = measure(args.quick)
     if args.json:
-        print(json.dumps(_json_ready(result), indent=2))
+        print(json.dumps(json_ready(result), indent=2))
         return 0
     for row in rows(result):
         print(f"{row.name:<48} {row.value:12.3f} {row.unit:<4} {row.target:<28} "

@@ -84,7 +84,7 @@ def _identify(quick: bool):
     import bench_identify
 
     result = bench_identify.measure(quick)
-    return bench_identify._json_ready(result), bench_identify.rows(result)
+    return bench_identify.json_ready(result), bench_identify.rows(result)
 
 
 def _build(quick: bool):

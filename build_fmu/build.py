@@ -51,6 +51,9 @@ def check_model(model, source="spec") -> str:
                          "(it exports the HysteresisModel fields only)")
     if model.n_operators < 1:
         raise BuildError(f"{source}: the model needs at least one operator")
+    if not model.name.isascii():
+        raise BuildError(f"{source}: the model name {model.name!r} must be ASCII: it names the FMU's C "
+                         "identifier and files")
     report = model.check_invertibility()
     if not report.invertible:
         raise BuildError(f"{source}: the inverse FMU cannot be built: {report.message}")

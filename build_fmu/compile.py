@@ -14,7 +14,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -33,16 +33,20 @@ class Platform:
     name: str                 # binaries/<name>/
     suffix: str               # file name extension of the library
     targets: tuple            # zig target triples; several are merged (macOS)
+    flags: tuple = ()         # flags for this platform only
 
 
 PLATFORMS = {
     # glibc 2.17 (2012): loads on every common distribution of the last decade
     "linux64": Platform("linux64", ".so", ("x86_64-linux-gnu.2.17",)),
     "win64": Platform("win64", ".dll", ("x86_64-windows-gnu",)),
-    # one universal library: fmpy on Apple silicon also loads darwin64
-    "darwin64": Platform("darwin64", ".dylib", ("x86_64-macos.10.13", "aarch64-macos.11.0")),
+    # one universal library: fmpy on Apple silicon also loads darwin64.  Apple's
+    # ABI keeps the frame pointer (stack walking relies on it).
+    "darwin64": Platform("darwin64", ".dylib", ("x86_64-macos.10.13", "aarch64-macos.11.0"),
+                         ("-fno-omit-frame-pointer",)),
 }
 
+# -fomit-frame-pointer: a few instructions less on the per-step path
 FLAGS = ("-shared", "-std=c99", "-O2", "-s", "-fomit-frame-pointer", "-fvisibility=hidden",
          "-ffp-contract=off", "-Wall", "-Wextra", "-Werror")
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
@@ -88,7 +92,8 @@ def _cache_key(sources: dict, target: str, extra=()) -> str:
     return digest.hexdigest()[:32]
 
 
-def compile_target(sources: dict, identifier: str, target: str, suffix: str, cache_dir=None) -> tuple:
+def compile_target(sources: dict, identifier: str, target: str, suffix: str, cache_dir=None,
+                   extra_flags=()) -> tuple:
     """Compile ``sources`` (``{file name: bytes}``, with ``all.c``) into the
     shared library ``<identifier><suffix>`` for the zig ``target``.
 
@@ -98,7 +103,7 @@ def compile_target(sources: dict, identifier: str, target: str, suffix: str, cac
     filename = identifier + suffix
     cached = None
     if cache_dir is not None:
-        cached = Path(cache_dir) / _cache_key(sources, target) / filename
+        cached = Path(cache_dir) / _cache_key(sources, target, extra_flags) / filename
         if cached.is_file():
             return cached.read_bytes(), True
     with tempfile.TemporaryDirectory(prefix="build-fmu-") as tmp:
@@ -108,8 +113,8 @@ def compile_target(sources: dict, identifier: str, target: str, suffix: str, cac
         for name, data in sources.items():
             (src / name).write_bytes(data)
         # run in out/ so that zig's side products (.lib, .pdb) stay there
-        cmd = zig_cc() + ["-target", target, *FLAGS, "-I", str(src), "-I", str(fmi_include_dir()),
-                          str(src / "all.c"), "-o", str(out / filename)]
+        cmd = zig_cc() + ["-target", target, *FLAGS, *extra_flags, "-I", str(src),
+                          "-I", str(fmi_include_dir()), str(src / "all.c"), "-o", str(out / filename)]
         result = subprocess.run(cmd, cwd=out, capture_output=True, text=True)
         if result.returncode != 0:
             raise ToolchainError(f"compiling {identifier} for {target} failed:\n"
@@ -146,19 +151,23 @@ def build_binaries(jobs, cache_dir=None, progress=None) -> dict:
     def run(task):
         ident, sources, name, target = task
         start = time.perf_counter()
-        data, hit = compile_target(sources, ident, target, PLATFORMS[name].suffix, cache_dir)
-        if progress:
-            how = "cached" if hit else f"{time.perf_counter() - start:.1f} s"
-            progress(f"compiled {ident} for {name} ({target}): {how}")
-        return data
+        platform = PLATFORMS[name]
+        data, hit = compile_target(sources, ident, target, platform.suffix, cache_dir, platform.flags)
+        return data, "cached" if hit else f"{time.perf_counter() - start:.1f} s"
 
     workers = max(1, min(len(tasks), os.cpu_count() or 2))
+    results = {}
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        results = list(pool.map(run, tasks))
-    by_task = dict(zip(((t[0], t[2], t[3]) for t in tasks), results))
+        futures = {pool.submit(run, task): task for task in tasks}
+        for future in as_completed(futures):      # progress from this thread only
+            ident, _sources, name, target = futures[future]
+            data, how = future.result()
+            results[(ident, name, target)] = data
+            if progress:
+                progress(f"compiled {ident} for {name} ({target}): {how}")
     out = {}
     for ident, _sources, name in jobs:
-        parts = [by_task[(ident, name, target)] for target in PLATFORMS[name].targets]
+        parts = [results[(ident, name, target)] for target in PLATFORMS[name].targets]
         if len(parts) == 1:
             out[(ident, name)] = parts[0]
         else:

@@ -14,6 +14,10 @@
  *   fmi2FreeInstance go on from there.
  * - Messages of status fmi2Error always reach the logger; others only when
  *   logging is on for their category.
+ * - fmi2SetReal, fmi2GetReal and fmi2DoStep have a short path for the
+ *   per-step case (StepComplete, one value), recognised by one comparison of
+ *   the instance tag; everything else takes the general path with the full
+ *   checks and messages.
  */
 #include <stdarg.h>
 #include <stdint.h>

@@ -14,7 +14,9 @@
  * operator states).  model_update computes the outputs for the current inputs
  * from `memory` and writes the memory the model would have after that input
  * into `scratch` (tentative); fmi2DoStep commits it by swapping the two
- * buffers.  No allocation and no copy on the per-step path.
+ * buffers.  No allocation and no copy on the per-step path, and the work is
+ * done once per step whether the importer reads the outputs before or after
+ * fmi2DoStep.
  *
  * All sizes are compile-time constants from the model's headers, so one
  * instance is a single block of memory and several instances share nothing.
@@ -132,8 +134,10 @@ static inline int layer_is_finite(double x)
 void model_reset(Instance *inst);
 
 /* Checks the parameters in inst->real / inst->boolean and derives what the
- * model needs from them.  Logs the first problem and returns fmi2Error for an
- * invalid set; fmi2Warning when it had to adjust an input. */
+ * model needs from them; called at fmi2ExitInitializationMode, after
+ * fmi2SetFMUstate, and before outputs are computed in initialisation mode
+ * with changed parameters.  Logs the first problem and returns fmi2Error for
+ * an invalid set; fmi2Warning when it had to adjust an input. */
 fmi2Status model_prepare(Instance *inst);
 
 /* Per-step fast check: nonzero when value can be stored as the input vr as it

@@ -38,7 +38,7 @@ import scipy.optimize
 
 from pysim.extended import (ExtendedModel, OutputStages, tustin_creep_mode, tustin_first_order,
                             tustin_second_order)
-from pysim.identify import identify, regressors
+from pysim.identify import IdentificationError, identify, regressors
 from pysim.model import HysteresisModel
 
 EFFECTS = ("rate_dependence", "creep", "delay", "drift")
@@ -243,7 +243,7 @@ class CandidateFitter:
         first = max(self.warmup, self._search_rows.start)
         stop = self.split - dmax
         if stop - first < self.design.shape[1] + 1:
-            raise ValueError("training part too short for the delay search")
+            raise IdentificationError("the training part is too short for the delay search")
         # y[j + d] = (A θ)[j] for the same rows j: one QR for every d
         Q, _ = np.linalg.qr(self.design[first:stop])
         sse = []

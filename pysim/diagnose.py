@@ -288,15 +288,20 @@ def _reasons(candidates: dict, stats: dict, noise_um: float, sample_period_s: fl
         if cause == "rate_dependence":
             shape = (f"second-order stage, f_n = {p['natural_frequency_hz']:.4g} Hz, ζ = {p['damping_ratio']:.3g}"
                      if p["order"] == 2 else f"first-order lag, τ = {p['time_constant_s'] * 1e3:.4g} ms")
-            hint = (f"residual-rate correlation {stats['rate_correlation']:+.2f}; largest residual spectral "
-                    f"peak {stats['peak_frequency_hz']:.4g} Hz at {stats['peak_over_median']:.1f}× the median")
+            hint = f"residual-rate correlation {stats['rate_correlation']:+.2f}; " + (
+                f"largest residual spectral peak between the input's harmonics {stats['peak_frequency_hz']:.4g} Hz "
+                f"at {stats['peak_over_median']:.1f}× the median" if stats["peak_over_median"] > 0
+                else "no spectral peak between the input's harmonics can be resolved")
         elif cause == "delay":
             shape = f"delay {p['delay_samples']:.3g} samples ({p['delay_s'] * 1e3:.4g} ms)"
             hint = (f"residual-rate correlation {stats['rate_correlation']:+.2f}; "
-                    f"{100 * stats['settling_fraction']:.0f} % of the residual power within 20 samples of an input change")
+                    f"{100 * stats['settling_fraction']:.0f} % of the residual power within 20 samples "
+                    f"of an input change")
         elif cause == "creep":
-            shape = f"{len(p['time_constants_s'])} creep modes, τ = {p['time_constants_s'][0]:.3g} … {p['time_constants_s'][-1]:.3g} s"
-            hint = f"direction-signed residual vs ln(time since change): correlation {stats['creep_log_correlation']:+.2f}"
+            taus = p["time_constants_s"]
+            shape = f"{len(taus)} creep modes, τ = {taus[0]:.3g} … {taus[-1]:.3g} s"
+            hint = (f"direction-signed residual vs ln(time since change): correlation "
+                    f"{stats['creep_log_correlation']:+.2f}")
         else:
             shape = f"polynomial of degree {p['degree']} in time"
             hint = (f"{100 * stats['low_frequency_fraction']:.0f} % of the residual power below a fifth of the "

@@ -174,6 +174,8 @@ def test_models_the_fmus_cannot_represent_are_refused(tmp_path):
     empty = HysteresisModel(a1=0.0, a2=1.0, thresholds_V=(), weights_um_per_V=())
     with pytest.raises(BuildError, match="at least one operator"):
         build_fmus(empty, tmp_path, ("linux64",))
+    with pytest.raises(BuildError, match="must be ASCII"):
+        build_fmus(MODEL.with_parameters(name="piezo_\u00b5"), tmp_path, ("linux64",))
     assert list(tmp_path.iterdir()) == []
 
 

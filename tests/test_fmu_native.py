@@ -67,7 +67,7 @@ def drivers(tmp_path_factory):
     _compile(["gcc"] + WARNINGS + include + [str(DRIVER), "-o", str(linux), "-ldl"], folder)
     windows = folder / "fmu_driver.exe"
     # the FMU build's flags: zig then reuses the MinGW runtime it built for the DLLs
-    flags = [f for f in FLAGS if f != "-shared"] + ["-Wpedantic"]
+    flags = [f for f in FLAGS if f != "-shared"] + list(PLATFORMS["win64"].flags) + ["-Wpedantic"]
     _compile(ZIG + ["-target", "x86_64-windows-gnu"] + flags + include + [str(DRIVER), "-o", str(windows)],
              folder)
     return linux, windows

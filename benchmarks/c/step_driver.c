@@ -9,10 +9,15 @@
  *
  * usage: step_driver LIBRARY GUID count|time CYCLES INPUT_LO INPUT_HI
  *
- *   count  runs the cycles once and prints a checksum of the outputs; run it
- *          under valgrind's callgrind for CYCLES = K and 2 K: the difference
- *          of the two instruction totals over K is the cost of one cycle, with
- *          everything else (loading, set-up, tear-down) cancelled out.
+ *   count  runs the cycles once and prints the sum of the outputs (as the 16
+ *          hex digits of the double); run it under valgrind's callgrind for
+ *          CYCLES = K and 2 K: the difference of the two instruction totals
+ *          over K is the cost of one cycle, with everything else (loading,
+ *          set-up, tear-down) cancelled out.  For an exact cancellation
+ *          everything outside the loop must cost the same in both runs: the
+ *          sum is printed by a fixed-length loop (printf's cost would depend
+ *          on the number) and CYCLES should be written with the same number
+ *          of digits (leading zeros are fine).
  *   time   runs the cycles five times after a warm-up and prints the best
  *          wall-clock time per cycle in nanoseconds.
  *
@@ -60,6 +65,22 @@ static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status
 {
     (void)env;
     fprintf(stderr, "[%d %s] %s: %s\n", (int)status, category, instance, message);
+}
+
+/* The bit pattern of x as 16 hex digits, at a cost independent of x. */
+static void print_bits(const char *label, double x)
+{
+    static const char digits[] = "0123456789abcdef";
+    unsigned long long u;
+    char text[17];
+    memcpy(&u, &x, sizeof u);
+    for (int i = 0; i < 16; i++) {
+        text[i] = digits[(u >> (60 - 4 * i)) & 15u];
+    }
+    text[16] = '\0';
+    fputs(label, stdout);
+    fputs(text, stdout);
+    fputs("\n", stdout);
 }
 
 static double now_ns(void)
@@ -156,7 +177,7 @@ int main(int argc, char **argv)
     } else {
         status = run_cycles(&api, c, table, cycles, &t, &checksum);
     }
-    printf("checksum %.17g\n", checksum);
+    print_bits("checksum ", checksum);
     if (status > fmi2Warning) {
         fprintf(stderr, "step_driver: a call returned status %d\n", (int)status);
     }
