@@ -8,14 +8,7 @@
 HYST_API double hyst_output(const HystModel *m, double voltage,
                             const double *state, double *new_state)
 {
-    const double u = voltage - m->input_offset;
-    double y = (m->a1 * u * u + m->a2) * u;
-    for (int i = 0; i < m->n_operators; i++) {
-        const double w = hyst_operator_step(m->operator_kind, u, m->thresholds[i], state[i]);
-        new_state[i] = w;
-        y += m->weights[i] * w;
-    }
-    return y + m->output_offset;
+    return hyst_evaluate(m, voltage, state, new_state);
 }
 
 HYST_API void hyst_simulate(const HystModel *m, size_t n_samples,

@@ -61,9 +61,25 @@ static inline double hyst_operator_step(int kind, double u, double r, double w_p
     return (w > lower) ? w : lower;
 }
 
-/* Displacement (um) for the input voltage (V) given the committed operator
- * state; writes the operator outputs for this input into new_state (which may
- * alias state).  This is one sample of the forward model. */
+/* One sample of the forward model: the displacement (um) for the input
+ * voltage (V) given the committed operator state; writes the operator outputs
+ * for this input into new_state (which may alias state).  Inline so that a
+ * caller whose operator count and kind are compile-time constants (an FMU)
+ * gets it unrolled; hyst_output is the same code behind a function call. */
+static inline double hyst_evaluate(const HystModel *m, double voltage,
+                                   const double *state, double *new_state)
+{
+    const double u = voltage - m->input_offset;
+    double y = (m->a1 * u * u + m->a2) * u;
+    for (int i = 0; i < m->n_operators; i++) {
+        const double w = hyst_operator_step(m->operator_kind, u, m->thresholds[i], state[i]);
+        new_state[i] = w;
+        y += m->weights[i] * w;
+    }
+    return y + m->output_offset;
+}
+
+/* hyst_evaluate as an exported function (for the host library). */
 HYST_API double hyst_output(const HystModel *m, double voltage,
                             const double *state, double *new_state);
 

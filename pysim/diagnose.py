@@ -15,8 +15,9 @@ Procedure (``diagnose``):
    (:func:`pysim.identify.identify`).  Its residual is analysed
    (:mod:`pysim.residuals`): against time, input rate, time since the last
    input change, lagged cross-correlation with the input and its rate, and its
-   spectrum.  The noise level σ is estimated from the residual's
-   sample-to-sample differences.
+   spectrum.  The noise level σ is estimated from the sample-to-sample
+   differences of the residuals (the smallest estimate over the baseline and
+   the candidates: unexplained fast structure can only inflate it).
 3. **Candidates**: every effect of the catalog (rate_dependence, creep, delay,
    drift; :mod:`pysim.candidates`) is fitted on the training part and scored by
    its held-out RMS error.  A candidate is *significant* when it lowers the
@@ -363,8 +364,13 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     except IdentificationError as exc:
         raise DataError(f"{where}{exc}") from exc
 
+    # Structure the model misses also shows in the differences (ringing, steps),
+    # so it can only inflate the estimate: the smallest over all fitted models
+    # is the closest to the sensor noise.
     residual = y - baseline.prediction_um
-    noise = noise_sigma(residual[split.warmup:], quantum(y))
+    step = quantum(y)
+    noise = min(noise_sigma((y - ev.prediction_um)[split.warmup:], step)
+                for ev in [baseline, *candidates.values()])
     for ev in candidates.values():
         ev.gain_pct = 100.0 * (1.0 - ev.rms_um / baseline.rms_um) if baseline.rms_um > 0 else 0.0
         removed = baseline.rms_um**2 - ev.rms_um**2

@@ -317,7 +317,7 @@ def summary_markdown(d: Diagnosis) -> str:
         + (f" (split on a whole number of input periods of {split['period_s']:.4g} s)" if split["period_s"] else "")
         + ".",
         f"- Noise level σ = {d.noise_um:.4g} µm ({ev['noise_pct']:.3g} % of the held-out range), from the "
-        f"sample-to-sample differences of the baseline residual.",
+        f"sample-to-sample differences of the residuals (smallest over the baseline and the candidates).",
         f"- A candidate is significant when it removes at least {NOISE_FRACTION} σ² of held-out mean-square "
         f"error and at least {MIN_GAIN_PCT:.0f} % of the RMS error.",
         "",
