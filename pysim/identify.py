@@ -227,7 +227,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         CPI forces a1 = 0.
     operator : {"osp", "play"}
         Operator kind.  The input is shifted to the bottom of the record's range
-        for one-sided play and to its centre for classical play.
+        (``input_offset_V``) for both kinds.
     thresholds_V : array_like, optional
         Thresholds r_i (V, of the shifted input) instead of eq. 13.
     warmup : "auto" or int
@@ -261,7 +261,9 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     lo, hi = float(v.min()), float(v.max())
     if not hi > lo:
         raise IdentificationError("the voltage is constant: nothing to identify")
-    input_offset = lo if operator == "osp" else 0.5 * (lo + hi)
+    # u = v - lo for both kinds: the cubic a1 u^3 about the bottom of the range
+    # is what makes loops asymmetric (about the centre it would be odd-symmetric)
+    input_offset = lo
     r = (eq13_thresholds(n_operators, hi - lo, operator) if thresholds_V is None
          else np.asarray(thresholds_V, dtype=float))
     cubic = model == "mpi"

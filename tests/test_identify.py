@@ -44,10 +44,10 @@ def test_noise_free_data_recovers_the_parameters(kind):
 
 def test_noise_free_recovery_with_play_operators_bipolar_input_and_offset():
     base = scaled_paper_model(operator="play")
-    truth = base.with_parameters(input_offset_V=0.0, output_offset_um=-1.68, voltage_range_V=(-75.0, 75.0))
+    truth = base.with_parameters(input_offset_V=-75.0, output_offset_um=-1.68, voltage_range_V=(-75.0, 75.0))
     v = exciting_input(lo=-75.0, hi=75.0)
     m = identify(v, truth.simulate(v), operator="play").model
-    assert m.input_offset_V == 0.0
+    assert m.input_offset_V == -75.0
     assert m.a1 == pytest.approx(truth.a1, rel=1e-6)
     np.testing.assert_allclose(m.weights[1:], truth.weights[1:], rtol=1e-6)
     assert m.output_offset_um == pytest.approx(-1.68, rel=1e-6)
@@ -127,3 +127,15 @@ def test_auto_warmup_starts_once_both_ends_were_visited():
     result = identify(v, y)
     assert result.warmup_samples == int(np.argmax(v >= 150 - 0.45 * 15))
     assert result.errors["max_error_pct"] < 1e-8
+
+
+def test_one_sided_and_classical_play_fits_are_the_same_model_class():
+    """F^osp_r = F^play_{r/2} - r/2 (NOTES): with eq. 13 thresholds halved for play, both fits span the
+    same functions, so they reach the same optimum on any data."""
+    truth = scaled_paper_model()
+    v = exciting_input(8001)
+    y = truth.simulate(v) + np.random.default_rng(5).normal(0, 0.2, v.size)
+    osp = identify(v, y, operator="osp")
+    play = identify(v, y, operator="play")
+    assert play.objective == pytest.approx(osp.objective, rel=1e-9)
+    np.testing.assert_allclose(play.prediction_um, osp.prediction_um, atol=1e-9)
