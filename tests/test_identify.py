@@ -138,4 +138,5 @@ def test_one_sided_and_classical_play_fits_are_the_same_model_class():
     osp = identify(v, y, operator="osp")
     play = identify(v, y, operator="play")
     assert play.objective == pytest.approx(osp.objective, rel=1e-9)
-    np.testing.assert_allclose(play.prediction_um, osp.prediction_um, atol=1e-9)
+    fit = osp.fit_slice  # before it the two start from different (unknown-history) states
+    np.testing.assert_allclose(play.prediction_um[fit], osp.prediction_um[fit], atol=1e-9)
