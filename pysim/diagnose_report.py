@@ -129,8 +129,8 @@ def plot_overview(d: Diagnosis, path: Path):
     axes[2].set_ylabel("measured − model (µm)")
     axes[2].set_xlabel("time (s)")
     axes[2].legend(loc="upper right", fontsize=8, title_fontsize=8,
-                   title=f"bold: moving average of {window} samples; faint: raw\n"
-                         f"dotted: ±2σ noise (σ = {d.noise_um:.3g} µm)")
+                   title=(f"bold: moving average of {window} samples; faint: raw\n" if window > 1 else "")
+                   + f"dotted: ±2σ noise (σ = {d.noise_um:.3g} µm)")
     fig.savefig(path)
 
 
@@ -157,8 +157,8 @@ def plot_loops(d: Diagnosis, path: Path):
         axes[1].plot(v, _smooth(residual, window)[held], color=colour, lw=0.8, label=label)
     axes[1].set_xlabel("voltage (V)")
     axes[1].set_ylabel("measured − model (µm)")
-    axes[1].set_title(f"held-out residual against the input (moving average of {window} samples)",
-                      fontsize=10)
+    axes[1].set_title("held-out residual against the input"
+                      + (f" (moving average of {window} samples)" if window > 1 else ""), fontsize=10)
     axes[1].legend(fontsize=8)
     fig.savefig(path)
 
@@ -329,7 +329,7 @@ def summary_markdown(d: Diagnosis) -> str:
     for cause, c in ev["candidates"].items():
         lines.append(f"| {cause} | {c['heldout_rms_pct']:.3f} | {c['gain_pct']:+.1f} | "
                      f"{c['mse_removed_over_noise']:.2f} | {'yes' if c['significant'] else 'no'} | "
-                     f"{d.reasons[cause]} |")
+                     f"{d.reasons[cause].replace('|', chr(92) + '|')} |")
     stats = d.statistics
     lines += ["", "## Residual statistics (held-out part)", "",
               "| statistic | baseline | extended |", "| --- | ---: | ---: |"]

@@ -20,21 +20,26 @@
                        scipy's ``lsim`` (not the model's own discretisation);
   ``creep``            a logarithmic creep kernel, ``γ Σ Δu_k ln(1 + (t − t_k)/τ0)``
                        over all input changes (τ0 = 1 … 100 samples), or a sum of
-                       2–3 first-order lags with spread random time constants:
+                       2–3 first-order lags with random time constants (10
+                       samples … half the record) and weights:
                        in both cases *not* the diagnosis' own creep modes;
   ``delay``            1 … 8 samples of pure delay;
   ``drift``            a polynomial baseline of degree 1 or 2 in time plus a
-                       slow random walk whose RMS is 10 % of the polynomial's;
+                       slow random walk whose RMS is 3 % of the polynomial's
+                       (a trend can be extrapolated into a held-out part, a
+                       random walk cannot: it is the unpredictable remainder);
 - white Gaussian sensor noise.
 
 Magnitudes.  What makes an effect detectable is not its raw size but the part
 an MPI model cannot absorb (a delay on a single-frequency sine is mostly
 absorbed as a wider loop).  The generator therefore measures the *visible* part:
 the effect minus its least-squares projection on the MPI regressors (operator
-outputs, u, u³, a constant) over the record after the preconditioning.  The
-signal-to-noise ratio SNR = RMS(visible) / σ is drawn log-uniformly in
-[4, 40].  For creep and drift the noise σ is drawn first (log-uniform 0.01 …
-0.3 % of the displacement range) and the effect scaled to the SNR; for delay and
+outputs, u, u³, a constant) over the record after the preconditioning, its RMS
+taken over those samples and over the last 35 % of the record (where a
+held-out part lies), whichever is smaller.  The signal-to-noise ratio
+SNR = RMS(visible) / σ is drawn log-uniformly in [4, 40].  For creep and drift
+the noise σ is drawn first (log-uniform 0.01 … 0.3 % of the displacement
+range) and the effect scaled to the SNR; for delay and
 rate dependence, whose size follows from their parameters, σ = RMS(visible)/SNR
 (parameters are redrawn until σ is 0.003 … 1 % of the range).  For ``none`` σ is
 log-uniform 0.01 … 0.3 % of the range.  At SNR 4 the effect is plainly visible
