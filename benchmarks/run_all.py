@@ -167,8 +167,10 @@ def run(sections, quick: bool, say=print) -> tuple:
         try:
             result, section_rows = RUNNERS[name](quick)
         except Exception as exc:       # report and go on with the other sections
-            failures[name] = f"{type(exc).__name__}: {exc}"
-            details[name] = {"error": failures[name], "traceback": traceback.format_exc()}
+            text = f"{type(exc).__name__}: {exc}"
+            lines = text.strip().splitlines()
+            failures[name] = lines[0][:300] + (" (more in --json)" if len(lines) > 1 else "")
+            details[name] = {"error": text, "traceback": traceback.format_exc()}
             say(f"  {name} FAILED TO RUN: {failures[name]}")
             continue
         if result is None and not section_rows:

@@ -46,6 +46,14 @@ def model_guid(model, kind: str, source_digest: str) -> str:
     return "{" + str(uuid.UUID(bytes=digest.digest()[:16], version=5)) + "}"
 
 
+def instance_magic(guid: str) -> int:
+    """The 16-bit number that marks a live instance of the FMU with this GUID
+    (high bit set, never 0): the C layer refuses a component whose mark is
+    another FMU's, so handles mixed up between two FMUs in one process are
+    refused, not read with the wrong memory layout."""
+    return 0x8000 | int.from_bytes(hashlib.sha256(guid.encode()).digest()[:2], "little") & 0x7FFF
+
+
 def _initializer(items) -> str:
     items = list(items)
     lines, line = [], "    "
@@ -79,6 +87,7 @@ def config_header(model, kind: str, guid: str) -> str:
         "",
         f"#define MODEL_IDENTIFIER_STRING {_c_string(ident)}",
         f"#define MODEL_GUID {_c_string(guid)}",
+        f"#define MODEL_INSTANCE_MAGIC 0x{instance_magic(guid):04x}u",
         f"#define MODEL_N_OPERATORS {model.n_operators}",
         f"#define MODEL_OPERATOR_KIND {OPERATOR_MACROS[model.operator]}",
         f"#define MODEL_N_REALS {len(reals)}",

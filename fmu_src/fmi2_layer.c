@@ -314,6 +314,18 @@ FMI2_Export fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingO
     return fmi2OK;
 }
 
+/* The standard asks for an instance name with at least one character that
+ * is not white space. */
+static int has_visible_character(const char *name)
+{
+    for (; name && *name; name++) {
+        if (*name != ' ' && *name != '\t' && *name != '\n' && *name != '\r' && *name != '\v' && *name != '\f') {
+            return 1;
+        }
+    }
+    return 0;
+}
+
 FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
                                           fmi2String fmuResourceLocation,
                                           const fmi2CallbackFunctions *functions, fmi2Boolean visible,
@@ -324,8 +336,9 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
     if (!functions) {
         return NULL;
     }
-    if (!instanceName || !instanceName[0]) {
-        log_instantiation_error(functions, instanceName, "fmi2Instantiate: instanceName is empty");
+    if (!has_visible_character(instanceName)) {
+        log_instantiation_error(functions, instanceName,
+                                "fmi2Instantiate: instanceName is NULL, empty or only white space");
         return NULL;
     }
     if (!functions->allocateMemory || !functions->freeMemory) {
@@ -820,10 +833,22 @@ static fmi2Status restore(Instance *inst, const unsigned char *bytes)
     return fmi2OK;
 }
 
+/* The snapshot behind an fmi2FMUstate, or NULL when it is not one of this
+ * FMU's.  Every snapshot of this layer starts with the magic and the header;
+ * the size and model hash there tell a snapshot of another FMU loaded in the
+ * same process, which may be shorter than ours, before anything past the
+ * header is read. */
 static Snapshot *as_snapshot(fmi2FMUstate state)
 {
     Snapshot *snapshot = (Snapshot *)state;
-    return (snapshot && snapshot->magic == LAYER_SNAPSHOT_MAGIC) ? snapshot : NULL;
+    if (!snapshot || snapshot->magic != LAYER_SNAPSHOT_MAGIC) {
+        return NULL;
+    }
+    uint32_t size;
+    uint64_t hash;
+    get(snapshot->bytes + 12, &size, sizeof size);
+    get(snapshot->bytes + 16, &hash, sizeof hash);
+    return (size == SERIAL_SIZE && hash == guid_hash()) ? snapshot : NULL;
 }
 
 /* A snapshot to write into: *state if it is one of ours, else a new one. */
@@ -1010,6 +1035,11 @@ static LAYER_COLD fmi2Status do_step(fmi2Component c, double t, double h)
         layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
                   "fmi2DoStep: currentCommunicationPoint = %.17g s does not match the FMU's time %.17g s",
                   t, now);
+        return fmi2Error;
+    }
+    if (!is_finite(t + h)) {
+        layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
+                  "fmi2DoStep: the step from %.17g s by %.17g s would end at an infinite time", t, h);
         return fmi2Error;
     }
     fmi2Status status = fmi2OK;

@@ -64,13 +64,14 @@ enum {
 
 #define LAYER_STORAGE(n) ((n) > 0 ? (n) : 1)   /* C has no empty arrays */
 
-/* The tag of a live instance holds a magic number (high half), its state
- * (one LAYER_* bit) and two staleness bits: LAYER_STALE_OUTPUTS when the
- * outputs are not computed for the current inputs and committed memory,
+/* The tag of a live instance holds this FMU's magic number (high half,
+ * generated from the GUID: another FMU's instance never passes as ours), its
+ * state (one LAYER_* bit) and two staleness bits: LAYER_STALE_OUTPUTS when
+ * the outputs are not computed for the current inputs and committed memory,
  * LAYER_STALE_NEXT when the tentative memory is not.  One comparison of the
- * tag thus checks "alive, in StepComplete, what is up to date" on the
- * per-step path. */
-#define LAYER_MAGIC 0x4d50u
+ * tag thus checks "alive, of this FMU, in StepComplete, what is up to date"
+ * on the per-step path. */
+#define LAYER_MAGIC MODEL_INSTANCE_MAGIC
 #define LAYER_STALE_OUTPUTS (1u << 15)
 #define LAYER_STALE_NEXT (1u << 14)
 #define LAYER_STALE (LAYER_STALE_OUTPUTS | LAYER_STALE_NEXT)
