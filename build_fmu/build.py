@@ -4,6 +4,12 @@ Steps: load and check the spec (the inverse must exist), generate each FMU's
 ``modelDescription.xml`` and ``model_config.h``, cross-compile the C sources
 for every platform (in parallel, cached), check what each binary exports,
 and write the archives -- all or nothing.
+
+An extended spec (:class:`pysim.extended.ExtendedModel`) gives a plant FMU
+with its output stages, stepping at the spec's sample period only, and the
+inverse FMU of its hysteresis part: the stages (dynamics, delay, creep,
+drift) are not inverted.  An extended spec without stages builds like its
+hysteresis part.
 """
 from __future__ import annotations
 
@@ -12,11 +18,12 @@ from pathlib import Path
 
 from build_fmu import binaries
 from build_fmu.compile import PLATFORMS, ToolchainError, build_binaries
-from build_fmu.generate import fmu_sources, model_identifier
+from build_fmu.generate import fmu_sources, model_identifier, stage_summary
 from build_fmu.package import fmu_bytes
-from build_fmu.variables import KINDS
+from build_fmu.variables import KINDS, output_stages
 from fmu_src import SOURCE_DIR
 from pysim.errors import UserError
+from pysim.extended import ExtendedModel
 from pysim.fileio import staged_directory
 from pysim.model import HysteresisModel
 from pysim.spec import SpecError, load_spec
@@ -45,10 +52,13 @@ def default_cache_dir() -> Path:
 
 
 def check_model(model, source="spec") -> str:
-    """Refuse what the FMUs cannot represent; returns the invertibility text."""
-    if type(model) is not HysteresisModel:
+    """Refuse what the FMUs cannot represent; returns the invertibility text
+    (of the hysteresis part, for an extended model)."""
+    if type(model) not in (HysteresisModel, ExtendedModel):
         raise BuildError(f"{source}: {type(model).__name__} is not supported by build-fmu "
-                         "(it exports the HysteresisModel fields only)")
+                         "(it exports HysteresisModel and ExtendedModel specs only)")
+    if isinstance(model, ExtendedModel):
+        model = model.hysteresis_part()
     if model.n_operators < 1:
         raise BuildError(f"{source}: the model needs at least one operator")
     if not model.name.isascii():
@@ -70,13 +80,32 @@ def _platform_names(platforms) -> tuple:
     return names
 
 
+def fmu_models(model) -> dict:
+    """``{kind: model}``: what each FMU is built from.  The inverse of an
+    extended model compensates its hysteresis part; an extended model
+    without stages is its hysteresis part."""
+    if not isinstance(model, ExtendedModel):
+        return {"plant": model, "inverse": model}
+    hysteresis = model.hysteresis_part()
+    if not model.has_stages:
+        return {"plant": hysteresis, "inverse": hysteresis}
+    note = "hysteresis part of an extended spec; its output stages are not inverted"
+    inverse = hysteresis.with_parameters(description=f"{note} ({model.description})" if model.description
+                                         else note)
+    return {"plant": model, "inverse": inverse}
+
+
 def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache=True,
                cache_dir=None, progress=None) -> dict:
     """Build ``<name>_plant.fmu`` and ``<name>_inverse.fmu``.
 
+    For an extended spec with output stages the plant includes the stages
+    and steps at the spec's sample period only; the inverse compensates the
+    hysteresis part alone (the stages are not inverted).
+
     Parameters
     ----------
-    spec_or_model : HysteresisModel, path or module name
+    spec_or_model : HysteresisModel, ExtendedModel, path or module name
         The model spec (see :func:`pysim.spec.load_spec`).
     out_dir : path
         Folder for the two FMUs (created if needed).
@@ -117,10 +146,19 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
     say(f"loaded {source}: model {model.name}, {what}" if source != f"model {model.name}"
         else f"model {model.name}: {what}")
     say(check_model(model, source))
+    models = fmu_models(model)
+    if isinstance(model, ExtendedModel):
+        stages = output_stages(models["plant"])
+        if stages is None:
+            say("extended spec without output stages: building the FMUs of its hysteresis part")
+        else:
+            say(f"output stages {stage_summary(model)} at {stages['sample_period_s']:g} s: the plant FMU "
+                "steps at that period only; the inverse FMU compensates the hysteresis part alone "
+                "(the stages are not inverted)")
 
     version = tool_version()
-    files = {kind: fmu_sources(model, kind, SOURCE_DIR, version) for kind in KINDS}
-    idents = {kind: model_identifier(model, kind) for kind in KINDS}
+    files = {kind: fmu_sources(models[kind], kind, SOURCE_DIR, version) for kind in KINDS}
+    idents = {kind: model_identifier(models[kind], kind) for kind in KINDS}
     say(f"generated modelDescription.xml and model_config.h for {', '.join(idents.values())}")
 
     jobs = []

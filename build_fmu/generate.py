@@ -9,7 +9,7 @@ import hashlib
 import uuid
 from xml.sax.saxutils import quoteattr
 
-from build_fmu.variables import UNITS, variables
+from build_fmu.variables import output_stages, unit_definitions, variables
 
 GENERATION_TOOL = "piezo-mpi build-fmu"
 LOG_CATEGORIES = (
@@ -18,7 +18,7 @@ LOG_CATEGORIES = (
     ("logStatusError", "rejected calls and invalid parameters (always reported)"),
 )
 OPERATOR_MACROS = {"osp": "HYST_OSP", "play": "HYST_PLAY"}
-_CAUSALITY_ORDER = {"input": 0, "output": 1, "parameter": 2}
+_CAUSALITY_ORDER = {"input": 0, "output": 1, "parameter": 2, "local": 3}
 
 
 def model_identifier(model, kind: str) -> str:
@@ -37,11 +37,15 @@ def _c_string(text: str) -> str:
 
 def model_guid(model, kind: str, source_digest: str) -> str:
     """GUID from a hash of everything the FMU is made of: the variables with
-    their start values, the operator kind, and the C sources."""
+    their start values, the operator kind, the output stages' coefficients
+    (extended plants) and the C sources."""
     digest = hashlib.sha256()
     digest.update(f"{GENERATION_TOOL}\n{kind}\n{model_identifier(model, kind)}\n{model.operator}\n".encode())
     for v in variables(model, kind):
         digest.update(repr((v.name, v.value_reference, v.type, v.causality, v.unit, v.start)).encode())
+    stages = output_stages(model) if kind == "plant" else None
+    if stages is not None:
+        digest.update(repr(sorted(stages.items())).encode())
     digest.update(source_digest.encode())
     return "{" + str(uuid.UUID(bytes=digest.digest()[:16], version=5)) + "}"
 
@@ -65,6 +69,40 @@ def _initializer(items) -> str:
         line += piece
     lines.append(line.rstrip().rstrip(","))
     return "{ \\\n" + " \\\n".join(lines) + " \\\n}"
+
+
+def _c_array(values) -> str:
+    """A C initializer of doubles; ``{ 0.0 }`` for none (C has no empty arrays,
+    and the count macro says that nothing is used)."""
+    values = [_c_double(x) for x in values]
+    return _initializer(values) if values else "{ 0.0 }"
+
+
+def _stage_config(model) -> list:
+    """Lines of model_config.h for the output stages of an extended plant: the
+    discrete coefficients, exact, and the sizes (layout in output_stages.h)."""
+    stages = output_stages(model)
+    if stages is None:
+        return []
+    sections = [x for section in stages["sections"] for x in section]
+    return [
+        "",
+        "/* Output stages after the hysteresis (extended model, see output_stages.h):",
+        " * coefficients discretised for the sample period; the creep weights and",
+        " * drift coefficients are parameters (VR_creep_weight, VR_drift). */",
+        "#define MODEL_HAS_OUTPUT_STAGES 1",
+        f"#define MODEL_SAMPLE_PERIOD {_c_double(stages['sample_period_s'])}",
+        "#define MODEL_FIXED_STEP_SIZE MODEL_SAMPLE_PERIOD",
+        f"#define MODEL_N_SECTIONS {len(stages['sections'])}",
+        f"#define MODEL_SECTIONS {_c_array(sections)}",
+        f"#define MODEL_DELAY_WHOLE {int(stages['delay_whole'])}",
+        f"#define MODEL_DELAY_FRACTION {_c_double(stages['delay_fraction'])}",
+        f"#define MODEL_N_CREEP {len(stages['creep_alpha'])}",
+        f"#define MODEL_CREEP_ALPHA {_c_array(stages['creep_alpha'])}",
+        f"#define MODEL_CREEP_BETA {_c_array(stages['creep_beta'])}",
+        f"#define MODEL_N_DRIFT {len(stages['drift'])}",
+        f"#define MODEL_STAGE_STATE_SIZE {model.output_stages.state_size}",
+    ]
 
 
 def config_header(model, kind: str, guid: str) -> str:
@@ -93,6 +131,7 @@ def config_header(model, kind: str, guid: str) -> str:
         f"#define MODEL_N_REALS {len(reals)}",
         f"#define MODEL_N_INPUTS {sum(v.causality == 'input' for v in reals)}",
         f"#define MODEL_N_OUTPUTS {sum(v.causality == 'output' for v in reals)}",
+        f"#define MODEL_N_CONSTANTS {sum(v.causality == 'local' for v in reals)}",
         f"#define MODEL_N_BOOLEANS {len(booleans)}",
         f"#define MODEL_FIRST_BOOLEAN_VR {len(reals)}",
         "",
@@ -111,6 +150,8 @@ def config_header(model, kind: str, guid: str) -> str:
             f"#define MODEL_BOOLEAN_NAMES {_initializer(_c_string(v.name) for v in booleans)}",
             f"#define MODEL_BOOLEAN_STARTS {_initializer('1' if v.start else '0' for v in booleans)}",
         ]
+    if kind == "plant":
+        out += _stage_config(model)
     out += ["", "#endif /* PIEZO_MODEL_CONFIG_H */", ""]
     return "\n".join(out)
 
@@ -127,9 +168,14 @@ def model_description(model, kind: str, guid: str, source_files, version: str) -
     """Text of ``modelDescription.xml`` (FMI 2.0 co-simulation)."""
     allv = variables(model, kind)
     ident = model_identifier(model, kind)
+    stages = output_stages(model) if kind == "plant" else None
     what = ("MPI hysteresis plant: voltage (V) to displacement (um)" if kind == "plant" else
             "inverse compensator of the MPI hysteresis model: displacement (um) to voltage (V)")
-    description = f"{what}; {model.n_operators} {model.operator} operators; spec {model.name}"
+    description = f"{what}; {model.n_operators} {model.operator} operators"
+    if stages is not None:
+        description += (f"; output stages {stage_summary(model)}, sampled at "
+                        f"{_xml_double(stages['sample_period_s'])} s (fixed communication step)")
+    description += f"; spec {model.name}"
     if model.description:
         description += f": {model.description}"
     lines = ['<?xml version="1.0" encoding="UTF-8"?>']
@@ -138,7 +184,8 @@ def model_description(model, kind: str, guid: str, source_files, version: str) -
         generationTool=f"{GENERATION_TOOL} {version}", version=version,
         variableNamingConvention="structured", numberOfEventIndicators="0") + ">")
     lines.append("  <CoSimulation " + _attributes(
-        modelIdentifier=ident, needsExecutionTool="false", canHandleVariableCommunicationStepSize="true",
+        modelIdentifier=ident, needsExecutionTool="false",
+        canHandleVariableCommunicationStepSize="true" if stages is None else "false",
         canInterpolateInputs="false", maxOutputDerivativeOrder="0", canRunAsynchronuously="false",
         canBeInstantiatedOnlyOncePerProcess="false", canNotUseMemoryManagementFunctions="false",
         canGetAndSetFMUstate="true", canSerializeFMUstate="true",
@@ -149,7 +196,7 @@ def model_description(model, kind: str, guid: str, source_files, version: str) -
     lines.append("    </SourceFiles>")
     lines.append("  </CoSimulation>")
     lines.append("  <UnitDefinitions>")
-    for name, (factor, exponents) in UNITS.items():
+    for name, (factor, exponents) in unit_definitions(allv).items():
         base = _attributes(**{k: str(e) for k, e in exponents.items()},
                            factor=None if factor == 1.0 else _xml_double(factor))
         lines.append(f"    <Unit {_attributes(name=name)}><BaseUnit {base}/></Unit>")
@@ -158,13 +205,14 @@ def model_description(model, kind: str, guid: str, source_files, version: str) -
     for name, text in LOG_CATEGORIES:
         lines.append(f"    <Category {_attributes(name=name, description=text)}/>")
     lines.append("  </LogCategories>")
-    lines.append("  " + "<DefaultExperiment " + _attributes(startTime="0.0", stopTime="1.0", stepSize="0.001")
+    step = "0.001" if stages is None else _xml_double(stages["sample_period_s"])
+    lines.append("  " + "<DefaultExperiment " + _attributes(startTime="0.0", stopTime="1.0", stepSize=step)
                  + "/>")
     lines.append("  <ModelVariables>")
     for v in allv:
         variability = "continuous" if v.causality in ("input", "output") and v.type == "Real" else (
-            "fixed" if v.causality == "parameter" else "discrete")
-        initial = {"parameter": "exact", "output": "calculated"}.get(v.causality)
+            {"parameter": "fixed", "local": "constant"}.get(v.causality, "discrete"))
+        initial = {"parameter": "exact", "output": "calculated", "local": "exact"}.get(v.causality)
         lines.append(f"    <!-- index {v.value_reference + 1} -->")
         lines.append("    <ScalarVariable " + _attributes(
             name=v.name, valueReference=v.value_reference, description=v.description,
@@ -196,15 +244,35 @@ def model_description(model, kind: str, guid: str, source_files, version: str) -
     return "\n".join(lines) + "\n"
 
 
+def stage_summary(model) -> str:
+    """The output stages of an extended model in a few words, e.g.
+    ``lag 2 ms + delay 3 samples + 2 creep modes``."""
+    parts = []
+    if model.lag_time_constant_s > 0:
+        parts.append(f"lag {model.lag_time_constant_s:g} s")
+    if model.resonance_hz > 0:
+        parts.append(f"resonance {model.resonance_hz:g} Hz (damping {model.damping_ratio:g})")
+    if model.delay_samples > 0:
+        parts.append(f"delay {model.delay_samples:g} samples")
+    if model.creep_time_constants_s:
+        n = len(model.creep_time_constants_s)
+        parts.append(f"{n} creep mode{'s' if n > 1 else ''}")
+    if model.drift_coefficients:
+        parts.append(f"drift of degree {len(model.drift_coefficients)}")
+    return " + ".join(parts) or "none"
+
+
 def _dependencies(index: int, deps) -> str:
     return _attributes(index=index, dependencies=" ".join(map(str, deps)),
                        dependenciesKind=" ".join("dependent" for _ in deps))
 
 
 # Hand-written C files shipped in every FMU's sources/ (besides the model's
-# own model.c/model.h and the generated model_config.h).
+# own model.c/model.h and the generated model_config.h).  all.c compiles the
+# output stages only into the plant of an extended model; every FMU carries
+# them so that the source set is the same for all.
 SHARED_SOURCES = ("all.c", "fmi2_layer.c", "fmi2_layer.h", "hysteresis.c", "hysteresis.h",
-                  "mpi_parameters.c", "mpi_parameters.h")
+                  "mpi_parameters.c", "mpi_parameters.h", "output_stages.c", "output_stages.h")
 MODEL_SOURCES = ("model.c", "model.h")
 COMPILED_SOURCES = ("all.c",)          # the rest is included by all.c
 

@@ -8,6 +8,15 @@ Value references: Reals are numbered from 0 in this order -- the input, the
 output, the scalar parameters, the thresholds ``r[1]..r[n]``, the weights
 ``b[1]..b[n]`` -- and Booleans follow the Reals.  FMI 2.0 has no arrays, so
 each threshold and weight is its own scalar parameter.
+
+The plant of an extended model (:class:`pysim.extended.ExtendedModel` with
+output stages) adds, after ``b[n]``, the parameters its stages use as they are
+-- the creep weights ``creep_weight[j]`` and the drift coefficients
+``drift[j]`` -- and then, last, read-only constants (causality ``local``,
+variability ``constant``) that show the stages' physical quantities: the
+sample period, lag time constant, resonance, delay and creep time constants.
+Those are fixed at build time: the stages are discretised for the sample
+period, and the delay line's length is part of the FMU's memory layout.
 """
 from __future__ import annotations
 
@@ -25,13 +34,38 @@ _SCALAR_PARAMETERS = (
     ("voltage_max", "V", "upper end of the voltage range"),
 )
 
-# name: (factor, exponents of kg, m, s, A)
+# name: (factor, exponents of kg, m, s, A); every FMU declares these
 UNITS = {
     "V": (1.0, {"kg": 1, "m": 2, "s": -3, "A": -1}),
     "um": (1e-6, {"m": 1}),
     "um/V": (1e-6, {"kg": -1, "m": -1, "s": 3, "A": 1}),
     "um/V3": (1e-6, {"kg": -3, "m": -5, "s": 9, "A": 3}),
 }
+# units of the output-stage variables, declared only where they are used
+_STAGE_UNITS = {
+    "s": (1.0, {"s": 1}),
+    "Hz": (1.0, {"s": -1}),
+}
+
+
+def _drift_unit(power: int) -> str:
+    return "um/s" if power == 1 else f"um/s{power}"
+
+
+def unit_definitions(allv) -> dict:
+    """``{unit name: (factor, base-unit exponents)}`` of an FMU with the
+    variables ``allv``: :data:`UNITS` and the stage units its variables use."""
+    out = dict(UNITS)
+    for v in allv:
+        if v.unit is None or v.unit in out:
+            continue
+        if v.unit in _STAGE_UNITS:
+            out[v.unit] = _STAGE_UNITS[v.unit]
+        elif v.unit.startswith("um/s"):
+            out[v.unit] = (1e-6, {"m": 1, "s": -int(v.unit[4:] or 1)})
+        else:
+            raise ValueError(f"no definition of the unit {v.unit!r}")
+    return out
 
 
 @dataclass(frozen=True)
@@ -46,7 +80,7 @@ class Variable:
     name: str
     value_reference: int
     type: str                 # "Real" or "Boolean"
-    causality: str            # "input", "output" or "parameter"
+    causality: str            # "input", "output", "parameter" or "local" (a constant)
     description: str
     unit: str | None = None
     start: float | bool | None = None
@@ -78,6 +112,47 @@ def _parameters(model, first_vr: int) -> list:
     return out
 
 
+def output_stages(model):
+    """The discrete output-stage coefficients of an extended model that has
+    stages (:meth:`pysim.extended.ExtendedModel.stage_parameters`), else None."""
+    from pysim.extended import ExtendedModel
+
+    if isinstance(model, ExtendedModel) and model.has_stages:
+        return model.stage_parameters()
+    return None
+
+
+def _stage_variables(model, first_vr: int) -> list:
+    """Creep-weight and drift parameters, then the read-only stage constants."""
+    out = []
+
+    def add(name, causality, text, unit, value, c_name=None):
+        out.append(Variable(name, first_vr + len(out), "Real", causality, text, unit, float(value), c_name))
+
+    for j, w in enumerate(model.creep_weights_um_per_V, start=1):
+        add(f"creep_weight[{j}]", "parameter", f"weight of creep mode {j}: its static displacement per volt "
+            f"of the shifted input (time constant creep_time_constant[{j}])", "um/V", w,
+            "creep_weight" if j == 1 else None)
+    for j, p in enumerate(model.drift_coefficients, start=1):
+        add(f"drift[{j}]", "parameter", f"coefficient of t^{j} of the drift added to the displacement "
+            "(t: time since the start of the run, s)", _drift_unit(j), p, "drift" if j == 1 else None)
+    add("sample_period", "local", "sample period of the output stages: every communication step must be "
+        "this long (fixed when the FMU is built)", "s", model.sample_period_s)
+    if model.lag_time_constant_s > 0:
+        add("lag_time_constant", "local", "time constant of the first-order lag after the hysteresis",
+            "s", model.lag_time_constant_s)
+    if model.resonance_hz > 0:
+        add("resonance_frequency", "local", "natural frequency of the second-order stage after the "
+            "hysteresis", "Hz", model.resonance_hz)
+        add("damping_ratio", "local", "damping ratio of the second-order stage", None, model.damping_ratio)
+    if model.delay_samples > 0:
+        add("delay", "local", f"pure delay of the output ({model.delay_samples!r} sample periods; "
+            "fractions interpolate linearly)", "s", model.delay_s)
+    for j, tau in enumerate(model.creep_time_constants_s, start=1):
+        add(f"creep_time_constant[{j}]", "local", f"time constant of creep mode {j}", "s", tau)
+    return out
+
+
 def variables(model, kind: str) -> list:
     """The variables of the ``kind`` ("plant" or "inverse") FMU of ``model``,
     ordered by value reference (Reals first)."""
@@ -102,6 +177,8 @@ def variables(model, kind: str) -> list:
     else:
         raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
     out = head + _parameters(model, len(head))
+    if kind == "plant" and output_stages(model) is not None:
+        out += _stage_variables(model, len(out))
     if tail:
         out.append(Variable("use_previous_sample", len(out), "Boolean", "parameter",
                             "false: exact inverse per sample; true: the paper's Fig. 7 loop closed "

@@ -30,8 +30,12 @@
 #pragma GCC visibility push(hidden)
 #endif
 
+#include "model_config.h"
 #include "hysteresis.c"
 #include "mpi_parameters.c"
+#ifdef MODEL_HAS_OUTPUT_STAGES
+#include "output_stages.c"      /* plant of an extended model only */
+#endif
 #include "model.c"
 #include "fmi2_layer.c"
 

@@ -181,6 +181,10 @@ static LAYER_COLD fmi2Status rejected_real(const Instance *inst, fmi2ValueRefere
     if (LAYER_IS_OUTPUT(vr)) {
         layer_log(inst, fmi2Error, LAYER_LOG_ERROR, "fmi2SetReal: %s is an output and cannot be set",
                   real_names[vr]);
+    } else if (LAYER_IS_CONSTANT(vr)) {
+        layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
+                  "fmi2SetReal: %s is a constant of this FMU and cannot be set (rebuild the FMU to change it)",
+                  real_names[vr]);
     } else if (!is_finite(value)) {
         layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
                   "fmi2SetReal: %s = %g is not a finite number; value not accepted", real_names[vr], value);
@@ -518,7 +522,7 @@ static LAYER_COLD fmi2Status set_reals(fmi2Component c, const fmi2ValueReference
         if (r >= MODEL_N_REALS) {
             return unknown_reference(inst, "fmi2SetReal", "Real", r);
         }
-        if (LAYER_IS_OUTPUT(r) || !is_finite(value[i]) ||
+        if (LAYER_IS_OUTPUT(r) || LAYER_IS_CONSTANT(r) || !is_finite(value[i]) ||
             (!LAYER_IS_INPUT(r) && !(inst->tag & MASK_SET_PARAMETER))) {
             return rejected_real(inst, r, value[i]);
         }
@@ -1017,6 +1021,19 @@ static inline int is_positive_finite(double x)
     return x > 0.0 && !(x > 1.7976931348623157e308);
 }
 
+#ifdef MODEL_FIXED_STEP_SIZE
+/* The step h at time t is the model's fixed step up to the rounding of the
+ * importer's time arithmetic (e.g. h = (n + 1) T - n T). */
+static inline int step_size_ok(double t, double h)
+{
+    const double error = h - MODEL_FIXED_STEP_SIZE;
+    const double tolerance = 1e-9 * MODEL_FIXED_STEP_SIZE + 1e-15 * (t < 0.0 ? -t : t);
+    return error <= tolerance && error >= -tolerance;
+}
+#else
+#define step_size_ok(t, h) 1
+#endif
+
 /* fmi2DoStep when the short path does not apply: checks the arguments, with
  * a tolerance on the time, and computes the step's outputs if stale. */
 static LAYER_COLD fmi2Status do_step(fmi2Component c, double t, double h)
@@ -1031,6 +1048,14 @@ static LAYER_COLD fmi2Status do_step(fmi2Component c, double t, double h)
                   "fmi2DoStep: communicationStepSize = %g s must be positive and finite", h);
         return fmi2Error;
     }
+#ifdef MODEL_FIXED_STEP_SIZE
+    if (!step_size_ok(t, h)) {
+        layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
+                  "fmi2DoStep: communicationStepSize = %.17g s, but this FMU steps at its sample period "
+                  "%.17g s only", h, MODEL_FIXED_STEP_SIZE);
+        return fmi2Error;
+    }
+#endif
     if (!(offset <= tolerance && offset >= -tolerance)) {
         layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
                   "fmi2DoStep: currentCommunicationPoint = %.17g s does not match the FMU's time %.17g s",
@@ -1061,10 +1086,10 @@ FMI2_Export fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunication
     const double t = currentCommunicationPoint;
     const double h = communicationStepSize;
     const double next = t + h;
-    /* short path: StepComplete, t is the FMU's time, 0 < h and t + h finite
-     * (NaN fails every comparison) */
+    /* short path: StepComplete, t is the FMU's time, 0 < h (the fixed step,
+     * if any) and t + h finite (NaN fails every comparison) */
     if (inst && (inst->tag | LAYER_STALE) == STEP_STALE && t == inst->time && next > t &&
-        !(next > 1.7976931348623157e308)) {
+        !(next > 1.7976931348623157e308) && step_size_ok(t, h)) {
         fmi2Status status = fmi2OK;
         if (inst->tag & LAYER_STALE_NEXT) {
             /* parameters are prepared in StepComplete: only the model runs */

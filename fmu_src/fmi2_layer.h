@@ -58,9 +58,19 @@ enum {
 };
 
 /* Real value references are laid out as inputs [0, MODEL_N_INPUTS), outputs
- * [MODEL_N_INPUTS, MODEL_N_INPUTS + MODEL_N_OUTPUTS), then parameters. */
+ * [MODEL_N_INPUTS, MODEL_N_INPUTS + MODEL_N_OUTPUTS), then parameters, then
+ * MODEL_N_CONSTANTS constants (read only). */
 #define LAYER_IS_INPUT(vr) ((vr) < MODEL_N_INPUTS)
 #define LAYER_IS_OUTPUT(vr) ((fmi2ValueReference)((vr) - MODEL_N_INPUTS) < MODEL_N_OUTPUTS)
+#ifndef MODEL_N_CONSTANTS
+#define MODEL_N_CONSTANTS 0
+#endif
+#define LAYER_IS_CONSTANT(vr) ((fmi2ValueReference)(vr) >= (fmi2ValueReference)(MODEL_N_REALS - MODEL_N_CONSTANTS))
+
+/* A model whose configuration defines MODEL_FIXED_STEP_SIZE (s) -- a
+ * sampled-data model -- accepts only communication steps of that size
+ * (canHandleVariableCommunicationStepSize is false); fmi2DoStep refuses
+ * others with fmi2Error. */
 
 #define LAYER_STORAGE(n) ((n) > 0 ? (n) : 1)   /* C has no empty arrays */
 

@@ -1,7 +1,9 @@
 /*
  * model.h (plant) -- the MPI hysteresis plant: voltage (V) in, displacement
- * (um) out.  Sizes and value references come from the generated
- * model_config.h.
+ * (um) out; for an extended model followed by output stages (dynamics,
+ * delay, creep, drift; see output_stages.h).  Sizes and value references come
+ * from the generated model_config.h, which defines MODEL_HAS_OUTPUT_STAGES
+ * for an extended model.
  */
 #ifndef PIEZO_PLANT_MODEL_H
 #define PIEZO_PLANT_MODEL_H
@@ -10,15 +12,32 @@
 #include "model_config.h"
 #include "mpi_parameters.h"
 
-/* Committed memory: the operator states w_1..w_n.  Output stages that follow
- * the hysteresis (dynamics, creep, delay) append their states here. */
+#ifdef MODEL_HAS_OUTPUT_STAGES
+#include "output_stages.h"
+
+/* Committed memory: the operator states w_1..w_n, the stage state
+ * (MODEL_STAGE_STATE_SIZE values), and the number k of committed steps (a
+ * whole number stored as a double).  k = 0 means "no sample yet": the first
+ * sample starts the stages at rest; the drift's time is k * sample period. */
+#define MODEL_STAGE_MEMORY MODEL_N_OPERATORS
+#define MODEL_STEP_COUNT (MODEL_N_OPERATORS + MODEL_STAGE_STATE_SIZE)
+#define MODEL_N_MEMORY (MODEL_STEP_COUNT + 1)
+
+typedef struct {
+    OutputStages stages;         /* built-in coefficients, creep_weight[] and drift[] */
+} ModelData;
+
+#else
+
+/* Committed memory: the operator states w_1..w_n. */
 #define MODEL_N_MEMORY MODEL_N_OPERATORS
 
-/* Quantities derived from the parameters at initialisation.  The hysteresis
- * stage needs none (it reads the parameters in place); later output stages
- * keep their discretised coefficients here. */
+/* The hysteresis alone derives nothing from its parameters (it reads them in
+ * place). */
 typedef struct {
-    int n_stages;                /* stages after the hysteresis (none yet) */
+    int unused;                  /* C has no empty structs */
 } ModelData;
+
+#endif /* MODEL_HAS_OUTPUT_STAGES */
 
 #endif /* PIEZO_PLANT_MODEL_H */
