@@ -254,6 +254,35 @@ static LAYER_COLD fmi2Status prepare(Instance *inst)
     return status;
 }
 
+/* Extreme (finite) parameters can overflow the model's arithmetic: an output
+ * that is not finite is refused with fmi2Error instead of being handed out
+ * as a valid number, and the step that produced it is not committed.  The
+ * outputs stay stale (recomputed before any read); they are zeroed so that
+ * an FMU state taken now holds finite numbers only. */
+static LAYER_COLD fmi2Status non_finite_output(Instance *inst)
+{
+    for (int i = MODEL_N_INPUTS; i < MODEL_N_INPUTS + MODEL_N_OUTPUTS; i++) {
+        if (!is_finite(inst->real[i])) {
+            layer_log(inst, fmi2Error, LAYER_LOG_ERROR,
+                      "%s = %g is not a finite number: the parameters overflow the model's arithmetic",
+                      real_names[i], inst->real[i]);
+            inst->real[i] = 0.0;
+        }
+    }
+    return fmi2Error;
+}
+
+/* model_update, with its outputs checked (on the per-step path: inlined). */
+static inline fmi2Status run_model(Instance *inst)
+{
+    const fmi2Status status = model_update(inst);
+    int finite = 1;
+    for (int i = MODEL_N_INPUTS; i < MODEL_N_INPUTS + MODEL_N_OUTPUTS; i++) {
+        finite &= is_finite(inst->real[i]);
+    }
+    return (finite || status > fmi2Warning) ? status : non_finite_output(inst);
+}
+
 /* Brings outputs and tentative memory up to date with inputs and parameters. */
 static LAYER_COLD fmi2Status update(Instance *inst)
 {
@@ -264,7 +293,7 @@ static LAYER_COLD fmi2Status update(Instance *inst)
             return status;
         }
     }
-    const fmi2Status computed = model_update(inst);
+    const fmi2Status computed = run_model(inst);
     if (computed <= fmi2Warning) {
         inst->tag &= ~(uint32_t)LAYER_STALE;
     }
@@ -494,7 +523,7 @@ FMI2_Export fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[
         const fmi2ValueReference r = vr[0];
         if (tag == STEP_STALE) {
             if (LAYER_IS_OUTPUT(r)) {
-                const fmi2Status status = model_update(inst);
+                const fmi2Status status = run_model(inst);
                 if (status <= fmi2Warning) {
                     inst->tag = STEP_TAG;
                     value[0] = inst->real[r];
@@ -1093,7 +1122,7 @@ FMI2_Export fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunication
         fmi2Status status = fmi2OK;
         if (inst->tag & LAYER_STALE_NEXT) {
             /* parameters are prepared in StepComplete: only the model runs */
-            status = model_update(inst);
+            status = run_model(inst);
             if (status > fmi2Warning) {
                 return status;
             }

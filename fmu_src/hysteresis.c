@@ -5,10 +5,33 @@
  */
 #include "hysteresis.h"
 
+/* Operators go through a local block: the compiler then knows that the new
+ * states overlap neither the old ones nor the parameters and packs the min/max
+ * into vector instructions (an FMU, whose operator count is a compile-time
+ * constant, gets it unrolled); the weighted sum keeps its left-to-right order,
+ * so every build adds in the same order and gives the same bits. */
+#define HYST_BLOCK 32
+
 HYST_API double hyst_output(const HystModel *m, double voltage,
                             const double *state, double *new_state)
 {
-    return hyst_evaluate(m, voltage, state, new_state);
+    const double u = voltage - m->input_offset;
+    double y = (m->a1 * u * u + m->a2) * u;
+    for (int start = 0; start < m->n_operators; start += HYST_BLOCK) {
+        const int rest = m->n_operators - start;
+        const int count = rest < HYST_BLOCK ? rest : HYST_BLOCK;
+        double w[HYST_BLOCK];
+        for (int i = 0; i < count; i++) {
+            w[i] = hyst_operator_step(m->operator_kind, u, m->thresholds[start + i], state[start + i]);
+        }
+        for (int i = 0; i < count; i++) {
+            y += m->weights[start + i] * w[i];
+        }
+        for (int i = 0; i < count; i++) {
+            new_state[start + i] = w[i];
+        }
+    }
+    return y + m->output_offset;
 }
 
 HYST_API void hyst_simulate(const HystModel *m, size_t n_samples,

@@ -61,40 +61,10 @@ static inline double hyst_operator_step(int kind, double u, double r, double w_p
     return (w > lower) ? w : lower;
 }
 
-/* One sample of the forward model: the displacement (um) for the input
- * voltage (V) given the committed operator state; writes the operator outputs
- * for this input into new_state (which may alias state).  Inline so that a
- * caller whose operator count and kind are compile-time constants (an FMU)
- * gets it unrolled; hyst_output is the same code behind a function call. */
-#define HYST_BLOCK 32
-
-static inline double hyst_evaluate(const HystModel *m, double voltage,
-                                   const double *state, double *new_state)
-{
-    const double u = voltage - m->input_offset;
-    double y = (m->a1 * u * u + m->a2) * u;
-    /* Operators go through a local block: the compiler then knows the new
-     * states cannot overlap the old ones or the parameters and packs the
-     * min/max into vector instructions; the sum keeps its left-to-right
-     * order, so every build adds in the same order (bit-identical results). */
-    for (int start = 0; start < m->n_operators; start += HYST_BLOCK) {
-        const int rest = m->n_operators - start;
-        const int count = rest < HYST_BLOCK ? rest : HYST_BLOCK;
-        double w[HYST_BLOCK];
-        for (int i = 0; i < count; i++) {
-            w[i] = hyst_operator_step(m->operator_kind, u, m->thresholds[start + i], state[start + i]);
-        }
-        for (int i = 0; i < count; i++) {
-            y += m->weights[start + i] * w[i];
-        }
-        for (int i = 0; i < count; i++) {
-            new_state[start + i] = w[i];
-        }
-    }
-    return y + m->output_offset;
-}
-
-/* hyst_evaluate as an exported function (for the host library). */
+/* Displacement (um) for the input voltage (V) given the committed operator
+ * state; writes the operator outputs for this input into new_state (which may
+ * be state itself, but must not overlap it otherwise).  One sample of the
+ * forward model. */
 HYST_API double hyst_output(const HystModel *m, double voltage,
                             const double *state, double *new_state);
 

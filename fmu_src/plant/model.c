@@ -1,7 +1,7 @@
 /*
  * model.c (plant) -- the hooks of the FMI layer for the MPI plant.
  *
- *     h_k = H[voltage]_k            (hyst_evaluate, one sample per step)
+ *     h_k = H[voltage]_k            (hyst_output, one sample per step)
  *     displacement_k = h_k          (MPI model), or for an extended model
  *     displacement_k = S[h, u]_k    (ostage_output: the output stages, with
  *                                    u = voltage - input_offset and the time
@@ -103,8 +103,7 @@ LAYER_HOT fmi2Status model_update(Instance *inst)
 {
     const HystModel hysteresis = MPI_MODEL(inst->real);
     const double voltage = inst->real[VR_voltage];
-    /* inline: operator count and kind are constants here, so it unrolls */
-    const double h = hyst_evaluate(&hysteresis, voltage, inst->memory, inst->scratch);
+    const double h = hyst_output(&hysteresis, voltage, inst->memory, inst->scratch);
 #ifdef MODEL_HAS_OUTPUT_STAGES
     const OutputStages *stages = &inst->model.stages;
     const double k = inst->memory[MODEL_STEP_COUNT];
