@@ -3,7 +3,10 @@
 ``build_fmus(spec_or_model, out_dir, platforms=...) -> {"plant": Path, "inverse": Path}``
 builds the plant FMU (``voltage`` V -> ``displacement`` um) and the inverse
 compensator FMU (``displacement_ref`` um -> ``voltage`` V) from the hand-written
-C sources in ``fmu_src/``; ``build-fmu`` is its command line.
+C sources in ``fmu_src/``; ``build-fmu`` is its command line.  For an extended
+spec (:class:`pysim.extended.ExtendedModel`) the plant carries the output
+stages and steps at the spec's sample period only, and the inverse
+compensates the hysteresis part alone.
 """
 from build_fmu.build import DEFAULT_PLATFORMS, BuildError, build_fmus
 from build_fmu.compile import PLATFORMS, ToolchainError

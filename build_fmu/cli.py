@@ -15,7 +15,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog="build-fmu",
         description="Build the FMI 2.0 co-simulation FMUs of a hysteresis model spec: "
                     "<name>_plant.fmu (voltage in V -> displacement in um) and "
-                    "<name>_inverse.fmu (displacement_ref in um -> voltage in V).")
+                    "<name>_inverse.fmu (displacement_ref in um -> voltage in V).  For an extended spec "
+                    "(written by pysim diagnose --out) the plant includes the output stages and steps at the "
+                    "spec's sample period only; the inverse compensates the hysteresis part alone.")
     parser.add_argument("spec", help="spec file (.py defining MODEL), module, or name in models/")
     parser.add_argument("-o", "--output", default=".", metavar="DIR", help="folder for the FMUs (default: .)")
     parser.add_argument("--platforms", nargs="+", default=list(DEFAULT_PLATFORMS), choices=sorted(PLATFORMS),

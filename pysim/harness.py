@@ -79,6 +79,8 @@ class FMUUnit:
         from fmpy.fmi2 import FMU2Slave
 
         self.path = Path(path)
+        if self.path.is_dir():
+            raise UserError(f"{self.path}: is a directory, not an FMU file")
         if not self.path.is_file():
             raise UserError(f"{self.path}: FMU file does not exist")
         try:

@@ -145,7 +145,6 @@ def test_state_of_another_model_of_the_same_size_is_refused():
     status, state = fmu.deserialize(c, foreign)
     assert status == ERROR and not state.value
     assert "written by a different model" in fmu.errors()[-1][3]
-    fmu.fmi2FreeInstance(c)
     # a NULL buffer and a NULL result pointer are refused, not dereferenced
     assert fmu.fmi2DeSerializeFMUstate(c, None, len(blob), ctypes.byref(ctypes.c_void_p())) == ERROR
     assert fmu.fmi2DeSerializeFMUstate(c, blob, len(blob), None) == ERROR

@@ -69,6 +69,9 @@ def open_chain(args, step_s: float = 1e-4, sweep: bool = False) -> Chain:
     if args.model is not None or args.plant is None:
         model = load_model(args.model or DEFAULT_MODEL)
     if args.plant is None:
+        from build_fmu.build import check_model
+
+        check_model(model, args.model or DEFAULT_MODEL)    # refused here, naming the spec, before any build
         print(f"FMUs of model {model.name}: building if not cached ...", file=sys.stderr, flush=True)
         plant, inverse = fmus_for_model(model)
     else:

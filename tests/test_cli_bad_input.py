@@ -1,0 +1,193 @@
+"""The command-line tools on bad input: ``pysim diagnose`` on every bad data
+file, the data-layout options of ``pysim identify`` and ``pysim diagnose``,
+``build-fmu`` on bad spec files, ``pysim bandwidth`` on files that are not
+usable FMUs.  Each gives exit code 2 and one line on stderr that names the
+file (and the line and column where that applies), and writes nothing: the
+output folder and the spec stay as they were.
+
+(``pysim identify`` on every bad data file: tests/test_cli_identify.py; what
+the loader's messages say for each file: tests/test_data.py, whose table is
+reused here.)
+"""
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+from build_fmu import build_fmus
+from build_fmu.cli import main as build_fmu_main
+from fmu_testing import DEFAULT_MODEL
+from pysim.cli import main as pysim_main
+from robustness import fmu_pair
+from test_data import BAD_FILES
+
+ROOT = Path(__file__).resolve().parents[1]
+BAD = ROOT / "tests" / "fixtures" / "bad"
+GOOD = ROOT / "tests" / "fixtures" / "good" / "standard.csv"
+
+
+def snapshot(folder: Path) -> dict:
+    """Every file under folder with its bytes (to show nothing changed)."""
+    return {str(p.relative_to(folder)): (p.read_bytes() if p.is_file() else None) for p in sorted(folder.rglob("*"))}
+
+
+def one_error_line(capsys, prefix: str) -> str:
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith(prefix) and "Traceback" not in err, err
+    return err
+
+
+# ------------------------------------------------------------ pysim diagnose
+@pytest.mark.parametrize("name", sorted(BAD_FILES))
+def test_diagnose_refuses_each_bad_file_with_its_place(tmp_path, capsys, name):
+    bad = BAD / name
+    before = snapshot(tmp_path)
+    code = pysim_main(["diagnose", str(bad), "--out", str(tmp_path / "extended.py"), "--report",
+                       str(tmp_path / "report")])
+    assert code == 2
+    message = one_error_line(capsys, "pysim diagnose: error: ")
+    assert f"{bad}: " in message
+    for fragment in BAD_FILES[name]:            # line, column, what is wrong
+        assert fragment in message, (fragment, message)
+    assert snapshot(tmp_path) == before
+
+
+def test_diagnose_missing_file(tmp_path, capsys):
+    assert pysim_main(["diagnose", str(tmp_path / "nope.csv"), "--out", str(tmp_path / "x.py")]) == 2
+    assert "nope.csv: no such file" in one_error_line(capsys, "pysim diagnose: error: ")
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------ data-layout options of both commands
+@pytest.mark.parametrize("command", ["identify", "diagnose"])
+@pytest.mark.parametrize("options, fragments", [
+    (["--voltage-column", "7"], ["voltage_V column number 7 is out of range", "header (line 1) has 3 columns"]),
+    (["--displacement-column", "0"], ["displacement_um column number 0 is out of range"]),
+    (["--time-column", "tme"], ["line 1", "no column 'tme'", "did you mean 'time_s', column 1"]),
+    (["--delimiter", ";"], ["line 1", "only one column found", "comma ','"]),
+    (["--no-header", "--sample-rate", "-5"], ["sample rate must be a positive finite number"]),
+])
+def test_layout_options_that_do_not_fit_the_file(tmp_path, capsys, command, options, fragments):
+    spec = tmp_path / "model.py"
+    assert pysim_main([command, str(GOOD), *options, "--out", str(spec)]) == 2
+    message = one_error_line(capsys, f"pysim {command}: error: ")
+    assert f"{GOOD}: " in message
+    for fragment in fragments:
+        assert fragment in message, (fragment, message)
+    assert list(tmp_path.iterdir()) == []
+
+
+# ----------------------------------------------------------------- build-fmu
+MODEL_IMPORT = "from pysim.model import HysteresisModel\n"
+# a2 = 1 um/V, a1 = -1e-4 um/V^3, one operator of zero weight: the slope
+# 1 - 3e-4 v^2 falls to 0 at v = sqrt(1 / 3e-4) V, inside the 0..150 V range
+NOT_INVERTIBLE = (MODEL_IMPORT + "MODEL = HysteresisModel(a1=-1e-4, a2=1.0, thresholds_V=(0.0,), "
+                  "weights_um_per_V=(0.0,), voltage_range_V=(0.0, 150.0), name='steep')\n")
+BAD_SPECS = {
+    "syntax_error.py": (MODEL_IMPORT + "MODEL = HysteresisModel(a1=0.0,\n    a2=1.0\n",
+                        ["SyntaxError", "line 2"]),
+    "no_model.py": ("X = 1\n", ["defines no MODEL of type HysteresisModel"]),
+    "model_not_a_model.py": ("MODEL = 3\n", ["defines no MODEL of type HysteresisModel"]),
+    "empty.py": ("", ["defines no MODEL of type HysteresisModel"]),
+    "raises.py": ("raise RuntimeError('calibration file missing')\n", ["RuntimeError: calibration file missing"]),
+    "descending_thresholds.py": (MODEL_IMPORT + "MODEL = HysteresisModel(a1=0.0, a2=1.0, thresholds_V=(1.0, 0.5), "
+                                 "weights_um_per_V=(0.1, 0.1))\n", ["thresholds must be in ascending order"]),
+    "not_invertible.py": (NOT_INVERTIBLE, ["the inverse FMU cannot be built", "not invertible",
+                                           f"from {math.sqrt(1 / 3e-4):.5g} V to 150 V"]),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD_SPECS))
+def test_build_fmu_refuses_bad_specs_and_writes_nothing(tmp_path, capsys, name):
+    text, fragments = BAD_SPECS[name]
+    spec = tmp_path / name
+    spec.write_text(text)
+    before = snapshot(tmp_path)
+    assert build_fmu_main([str(spec), "-o", str(tmp_path / "out"), "--platforms", "linux64", "-q"]) == 2
+    message = one_error_line(capsys, "build-fmu: error: ")
+    assert f"{spec}: " in message
+    for fragment in fragments:
+        assert fragment in message, (fragment, message)
+    assert snapshot(tmp_path) == before             # no output folder, the spec untouched
+
+
+@pytest.mark.parametrize("case", ["missing", "directory", "output_is_a_file"])
+def test_build_fmu_missing_spec_directory_and_bad_output(tmp_path, capsys, case):
+    spec, output = tmp_path / "spec.py", tmp_path / "out"
+    if case == "directory":
+        spec.mkdir()
+    elif case == "output_is_a_file":
+        spec.write_text(NOT_INVERTIBLE.replace("a1=-1e-4", "a1=0.0"))
+        output.write_text("not a folder")
+    before = snapshot(tmp_path)
+    assert build_fmu_main([str(spec), "-o", str(output), "--platforms", "linux64", "-q"]) == 2
+    message = one_error_line(capsys, "build-fmu: error: ")
+    expected = {"missing": f"{spec}: spec file does not exist", "directory": f"{spec}: is a directory",
+                "output_is_a_file": f"{output}: exists and is not a folder"}[case]
+    assert expected in message
+    assert snapshot(tmp_path) == before
+
+
+# ---------------------------------------------------------- pysim bandwidth
+@pytest.fixture(scope="module")
+def unusable_fmus(tmp_path_factory):
+    """Files given where an FMU is expected, with what the message must say."""
+    folder = tmp_path_factory.mktemp("not-fmus")
+    text = folder / "notes.fmu"
+    text.write_text("not an FMU\n")
+    empty_zip = folder / "empty_archive.fmu"
+    with zipfile.ZipFile(empty_zip, "w") as archive:
+        archive.writestr("readme.txt", "no model description")
+    (folder / "folder.fmu").mkdir()
+    windows_only = build_fmus(DEFAULT_MODEL, folder / "windows_only", ("win64",))["plant"]
+    return {
+        "text_file": (text, "not a readable FMU"),
+        "zip_without_model_description": (empty_zip, "modelDescription.xml"),
+        "directory": (folder / "folder.fmu", "is a directory"),
+        "missing": (folder / "nope.fmu", "FMU file does not exist"),
+        "no_binary_for_this_platform": (windows_only, "cannot load and initialise the FMU"),
+        "inverse_given_as_plant": (fmu_pair().fmus["inverse"], "so it is the inverse FMU"),
+    }
+
+
+@pytest.mark.parametrize("case", ["text_file", "zip_without_model_description", "directory", "missing",
+                                  "no_binary_for_this_platform", "inverse_given_as_plant"])
+def test_bandwidth_refuses_a_plant_that_is_not_a_usable_fmu(capsys, unusable_fmus, case):
+    path, fragment = unusable_fmus[case]
+    inverse = fmu_pair().fmus["inverse"]
+    code = pysim_main(["bandwidth", "--plant", str(path), "--inverse", str(inverse), "--points", "30",
+                       "--amplitudes", "7.5"])
+    assert code == 2
+    message = one_error_line(capsys, "pysim bandwidth: error: ")
+    assert f"{path}: " in message and fragment in message, message
+
+
+def test_bandwidth_refuses_a_spec_without_inverse_naming_the_voltage(tmp_path, capsys):
+    spec = tmp_path / "steep.py"
+    spec.write_text(NOT_INVERTIBLE)
+    assert pysim_main(["bandwidth", "--model", str(spec), "--stage", "none"]) == 2
+    message = one_error_line(capsys, "pysim bandwidth: error: ")
+    assert f"{spec}: the inverse FMU cannot be built" in message
+    assert f"from {math.sqrt(1 / 3e-4):.5g} V to 150 V" in message
+    assert snapshot(tmp_path) == {"steep.py": NOT_INVERTIBLE.encode()}
+
+
+# ------------------------------------------------ the real programs, once each
+@pytest.mark.parametrize("command", [
+    [sys.executable, "-m", "pysim.cli", "diagnose", str(BAD / "nan.csv")],
+    [sys.executable, "-m", "build_fmu.cli", "no_such_spec.py", "-o", "out"],
+    [sys.executable, "-m", "pysim.cli", "bandwidth", "--plant", "missing.fmu", "--inverse", "missing.fmu"],
+], ids=["diagnose", "build-fmu", "bandwidth"])
+def test_programs_exit_with_code_2_and_one_line(tmp_path, command):
+    result = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                            env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    assert result.returncode == 2
+    assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr, result.stderr
+    assert list(tmp_path.iterdir()) == []
