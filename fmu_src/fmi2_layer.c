@@ -273,7 +273,7 @@ static LAYER_COLD fmi2Status non_finite_output(Instance *inst)
 }
 
 /* model_update, with its outputs checked (on the per-step path: inlined). */
-static inline fmi2Status run_model(Instance *inst)
+static LAYER_HOT fmi2Status run_model(Instance *inst)
 {
     const fmi2Status status = model_update(inst);
     int finite = 1;
