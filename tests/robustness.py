@@ -100,9 +100,9 @@ def sanitized_library(kind: str) -> Path:
     folder = _temporary_folder(f"asan-{kind}-")
     out = folder / (pair.identifiers[kind] + ".so")
     src = pair.sources(kind)
-    compile_c(["gcc"] + WARNINGS + SANITIZE + FP_FLAGS + ["-shared", "-fPIC", "-I", str(src), "-I",
-                                                         str(fmi_include_dir()), str(src / "all.c"), "-o",
-                                                         str(out)], folder)
+    include = ["-I", str(src), "-I", str(fmi_include_dir())]
+    compile_c(["gcc"] + WARNINGS + SANITIZE + FP_FLAGS + ["-shared", "-fPIC"] + include
+              + [str(src / "all.c"), "-o", str(out)], folder)
     return out
 
 
@@ -151,9 +151,14 @@ SUMMARY = re.compile(r"^(\d+) cases tried, (\d+) handled$")
 
 def parse_cases(stdout: str) -> tuple:
     """(cases, tried, handled) from the misuse driver's output; cases are
-    dicts keyed by the fields of a case line, in the order run."""
+    dicts keyed by the fields of a case line and its section, in the order run."""
     lines = stdout.replace("\r\n", "\n").splitlines()
-    cases = [m.groupdict() for m in map(CASE.match, lines) if m]
+    cases, section = [], None
+    for line in lines:
+        if line.startswith("# section "):
+            section = line[len("# section "):]
+        elif CASE.match(line):
+            cases.append(dict(CASE.match(line).groupdict(), section=section))
     summaries = [m for m in map(SUMMARY.match, lines) if m]
     assert len(summaries) == 1, "the driver did not finish (no summary line):\n" + "\n".join(lines[-5:])
     return cases, int(summaries[0].group(1)), int(summaries[0].group(2))

@@ -73,9 +73,20 @@ def test_every_case_is_handled_and_nothing_crashes(runs, platform):
     assert not failed, "\n".join(failed)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     assert tried == handled == len(cases) >= 500
+    assert len({(c["fmu"], c["name"]) for c in cases}) == len(cases)       # every case named once
     # both FMUs went through the whole suite
     assert {c["fmu"] for c in cases} == {"plant", "inverse", "both"}
     assert min(sum(c["fmu"] == kind for c in cases) for kind in ("plant", "inverse")) >= 250
+
+
+def test_every_section_ran_on_both_fmus(runs):
+    cases = runs["linux64"][1]
+    sections = ("library", "instantiation", "no-instance", "wrong-state", "step-complete", "voltage-range",
+                "parameters", "fmu-state", "foreign-instance", "many-instances")
+    for fmu in ("plant", "inverse"):
+        counts = {s: sum(c["fmu"] == fmu and c["section"] == s for c in cases) for s in sections}
+        assert all(counts.values()), counts
+        print(f"{fmu}: " + ", ".join(f"{s} {n}" for s, n in counts.items()))
 
 
 def test_linux_and_windows_binaries_answer_alike(runs):

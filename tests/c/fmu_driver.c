@@ -27,81 +27,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "fmi2TypesPlatform.h"
-#include "fmi2FunctionTypes.h"
-
-#ifdef _WIN32
-#include <windows.h>
-typedef HMODULE Library;
-static Library open_library(const char *path) { return LoadLibraryA(path); }
-static void load_symbol(Library lib, const char *name, void (**target)(void))
-{
-    FARPROC f = GetProcAddress(lib, name);
-    memcpy(target, &f, sizeof *target);
-}
-static void close_library(Library lib) { FreeLibrary(lib); }
-#else
-#include <dlfcn.h>
-typedef void *Library;
-static Library open_library(const char *path) { return dlopen(path, RTLD_NOW | RTLD_LOCAL); }
-static void load_symbol(Library lib, const char *name, void (**target)(void))
-{
-    void *f = dlsym(lib, name);
-    memcpy(target, &f, sizeof *target);
-}
-static void close_library(Library lib) { dlclose(lib); }
-#endif
-
-typedef struct {
-    fmi2GetTypesPlatformTYPE *GetTypesPlatform;
-    fmi2GetVersionTYPE *GetVersion;
-    fmi2SetDebugLoggingTYPE *SetDebugLogging;
-    fmi2InstantiateTYPE *Instantiate;
-    fmi2FreeInstanceTYPE *FreeInstance;
-    fmi2SetupExperimentTYPE *SetupExperiment;
-    fmi2EnterInitializationModeTYPE *EnterInitializationMode;
-    fmi2ExitInitializationModeTYPE *ExitInitializationMode;
-    fmi2TerminateTYPE *Terminate;
-    fmi2ResetTYPE *Reset;
-    fmi2GetRealTYPE *GetReal;
-    fmi2GetIntegerTYPE *GetInteger;
-    fmi2GetBooleanTYPE *GetBoolean;
-    fmi2GetStringTYPE *GetString;
-    fmi2SetRealTYPE *SetReal;
-    fmi2SetIntegerTYPE *SetInteger;
-    fmi2SetBooleanTYPE *SetBoolean;
-    fmi2SetStringTYPE *SetString;
-    fmi2GetFMUstateTYPE *GetFMUstate;
-    fmi2SetFMUstateTYPE *SetFMUstate;
-    fmi2FreeFMUstateTYPE *FreeFMUstate;
-    fmi2SerializedFMUstateSizeTYPE *SerializedFMUstateSize;
-    fmi2SerializeFMUstateTYPE *SerializeFMUstate;
-    fmi2DeSerializeFMUstateTYPE *DeSerializeFMUstate;
-    fmi2GetDirectionalDerivativeTYPE *GetDirectionalDerivative;
-    fmi2SetRealInputDerivativesTYPE *SetRealInputDerivatives;
-    fmi2GetRealOutputDerivativesTYPE *GetRealOutputDerivatives;
-    fmi2DoStepTYPE *DoStep;
-    fmi2CancelStepTYPE *CancelStep;
-    fmi2GetStatusTYPE *GetStatus;
-    fmi2GetRealStatusTYPE *GetRealStatus;
-    fmi2GetIntegerStatusTYPE *GetIntegerStatus;
-    fmi2GetBooleanStatusTYPE *GetBooleanStatus;
-    fmi2GetStringStatusTYPE *GetStringStatus;
-} Api;
-
-static const char *const api_names[] = {
-    "fmi2GetTypesPlatform", "fmi2GetVersion", "fmi2SetDebugLogging", "fmi2Instantiate",
-    "fmi2FreeInstance", "fmi2SetupExperiment", "fmi2EnterInitializationMode",
-    "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2Reset", "fmi2GetReal", "fmi2GetInteger",
-    "fmi2GetBoolean", "fmi2GetString", "fmi2SetReal", "fmi2SetInteger", "fmi2SetBoolean",
-    "fmi2SetString", "fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate",
-    "fmi2SerializedFMUstateSize", "fmi2SerializeFMUstate", "fmi2DeSerializeFMUstate",
-    "fmi2GetDirectionalDerivative", "fmi2SetRealInputDerivatives", "fmi2GetRealOutputDerivatives",
-    "fmi2DoStep", "fmi2CancelStep", "fmi2GetStatus", "fmi2GetRealStatus", "fmi2GetIntegerStatus",
-    "fmi2GetBooleanStatus", "fmi2GetStringStatus",
-};
-#define N_API (sizeof api_names / sizeof api_names[0])
-typedef char api_table_matches_names[sizeof(Api) == N_API * sizeof(void (*)(void)) ? 1 : -1];
+#include "fmi2_api.h"        /* Fmi2Api: every fmi2* function, loaded */
 
 static int failures = 0;
 
@@ -165,7 +91,7 @@ static double step_size(size_t k)
 /* One sample on one instance: set the input, then get the output before or
  * after the step (the output for a held input does not change over a step,
  * so both orders must give the same numbers). */
-static double sample(const Api *api, fmi2Component c, double input, double t, size_t k, int get_first)
+static double sample(const Fmi2Api *api, fmi2Component c, double input, double t, size_t k, int get_first)
 {
     const fmi2ValueReference in = 0, out = 1;
     double output = 0.0;
@@ -215,26 +141,13 @@ int main(int argc, char **argv)
         return 2;
     }
 
-    Library lib = open_library(argv[1]);
+    Fmi2Api api;
+    Fmi2Library lib = fmi2_load(argv[1], &api);
     if (!lib) {
-        fprintf(stderr, "fmu_driver: cannot load %s\n", argv[1]);
+        printf("# FAILED cannot load %s with every fmi2* function\n", argv[1]);
         return 3;
     }
-    /* Api is a row of function pointers in the order of api_names */
-    void (*functions[N_API])(void);
-    for (size_t i = 0; i < N_API; i++) {
-        load_symbol(lib, api_names[i], &functions[i]);
-        if (!functions[i]) {
-            printf("# FAILED missing %s\n", api_names[i]);
-            failures++;
-        }
-    }
-    if (failures) {
-        return 1;
-    }
-    Api api;
-    memcpy(&api, functions, sizeof api);
-    printf("# exports all %lu co-simulation functions\n", (unsigned long)N_API);
+    printf("# exports all %lu co-simulation functions\n", (unsigned long)FMI2_N_API);
     printf("# version %s, types platform %s\n", api.GetVersion(), api.GetTypesPlatform());
 
     const fmi2CallbackFunctions callbacks = { logger, calloc, free, NULL, NULL };
@@ -306,7 +219,7 @@ int main(int argc, char **argv)
     check(api.FreeFMUstate(a, &restored), "fmi2FreeFMUstate");
     api.FreeInstance(a);
     api.FreeInstance(b);
-    close_library(lib);
+    fmi2_close_library(lib);
     free(blob);
     free(outputs);
     free(inputs);
