@@ -37,6 +37,7 @@ from bench_common import Row, at_most
 
 HERE = Path(__file__).resolve().parent
 DRIVER_SOURCE = HERE / "c" / "step_driver.c"
+LOADER_DIR = HERE.parent / "tests" / "c"     # fmi2_api.h, the loader the C test drivers share
 OPERATOR_COUNTS = (10, 50, 200)
 TARGET_PLANT_INSTRUCTIONS = 150
 TABLE_SIZE = 1024          # period of the driver's input table (samples)
@@ -85,13 +86,14 @@ def driver_table(lo: float, hi: float) -> np.ndarray:
 
 
 def compile_driver(out_dir) -> Path:
-    """Compile c/step_driver.c for this machine (needs a C compiler and dlopen)."""
+    """Compile c/step_driver.c for this machine (needs a C compiler and dlopen;
+    the FMU is loaded by tests/c/fmi2_api.h)."""
     from build_fmu.compile import fmi_include_dir
     from pysim._kernel import host_compiler
 
     target = Path(out_dir) / "step_driver"
-    cmd = host_compiler() + ["-O2", "-std=c99", "-Wall", "-Wextra", "-I", str(fmi_include_dir()),
-                             str(DRIVER_SOURCE), "-o", str(target), "-ldl", "-lm"]
+    cmd = host_compiler() + ["-O2", "-std=c99", "-Wall", "-Wextra", "-I", str(LOADER_DIR), "-I",
+                             str(fmi_include_dir()), str(DRIVER_SOURCE), "-o", str(target), "-ldl", "-lm"]
     result = subprocess.run(cmd, capture_output=True, text=True)
     if result.returncode != 0:
         raise BenchmarkError(f"compiling {DRIVER_SOURCE.name} failed:\n{result.stderr.strip()}")

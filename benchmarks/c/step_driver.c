@@ -28,37 +28,16 @@
  * loop the driver adds only the table look-up and the status check.
  */
 #define _POSIX_C_SOURCE 199309L
-#include <dlfcn.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
-#include "fmi2TypesPlatform.h"
-#include "fmi2FunctionTypes.h"
+#include "fmi2_api.h"        /* Fmi2Api: every fmi2* function, loaded (shared with tests/c) */
 
 #define TABLE_SIZE 1024u
 #define REPEATS 5
-
-typedef struct {
-    fmi2InstantiateTYPE *Instantiate;
-    fmi2FreeInstanceTYPE *FreeInstance;
-    fmi2SetupExperimentTYPE *SetupExperiment;
-    fmi2EnterInitializationModeTYPE *EnterInitializationMode;
-    fmi2ExitInitializationModeTYPE *ExitInitializationMode;
-    fmi2TerminateTYPE *Terminate;
-    fmi2SetRealTYPE *SetReal;
-    fmi2GetRealTYPE *GetReal;
-    fmi2DoStepTYPE *DoStep;
-} Api;
-
-static const char *const api_names[] = {
-    "fmi2Instantiate", "fmi2FreeInstance", "fmi2SetupExperiment", "fmi2EnterInitializationMode",
-    "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2SetReal", "fmi2GetReal", "fmi2DoStep",
-};
-#define N_API (sizeof api_names / sizeof api_names[0])
-typedef char api_table_matches_names[sizeof(Api) == N_API * sizeof(void (*)(void)) ? 1 : -1];
 
 static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
                    fmi2String category, fmi2String message, ...)
@@ -92,7 +71,7 @@ static double now_ns(void)
 
 /* The measured loop; kept out of line so that a profile shows it as one
  * function.  Returns the worst status seen; *time_s carries the FMU's time. */
-static __attribute__((noinline)) fmi2Status run_cycles(const Api *api, fmi2Component c,
+static __attribute__((noinline)) fmi2Status run_cycles(const Fmi2Api *api, fmi2Component c,
                                                        const double *table, size_t cycles,
                                                        double *time_s, double *checksum)
 {
@@ -127,22 +106,15 @@ int main(int argc, char **argv)
         return 2;
     }
 
-    void *lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
+    Fmi2Api api;
+    Fmi2Library lib = fmi2_load(argv[1], &api);
     if (!lib) {
-        fprintf(stderr, "step_driver: cannot load %s: %s\n", argv[1], dlerror());
+        const char *why = dlerror();      /* fmi2_load said what failed; dlerror says why */
+        if (why) {
+            fprintf(stderr, "step_driver: %s\n", why);
+        }
         return 3;
     }
-    void (*functions[N_API])(void);
-    for (size_t i = 0; i < N_API; i++) {
-        void *f = dlsym(lib, api_names[i]);
-        if (!f) {
-            fprintf(stderr, "step_driver: %s is not exported\n", api_names[i]);
-            return 3;
-        }
-        memcpy(&functions[i], &f, sizeof f);
-    }
-    Api api;
-    memcpy(&api, functions, sizeof api);
 
     double table[TABLE_SIZE];
     const double pi = 3.14159265358979323846;
@@ -183,6 +155,6 @@ int main(int argc, char **argv)
     }
     api.Terminate(c);
     api.FreeInstance(c);
-    dlclose(lib);
+    fmi2_close_library(lib);
     return status > fmi2Warning ? 1 : 0;
 }
