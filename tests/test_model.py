@@ -221,3 +221,29 @@ def test_default_model_is_the_scaled_paper_example():
     np.testing.assert_allclose(MODEL.simulate(150 * v), 20 * norm.simulate(v), rtol=1e-13, atol=1e-12)
     assert MODEL.check_invertibility().invertible
     assert MODEL.simulate([0, 150])[-1] == pytest.approx(74.59, abs=0.01)
+
+
+@pytest.mark.parametrize("n", [1, 10, 33, 70])
+def test_record_loop_and_single_sample_call_give_the_same_bits(rng, n):
+    """The FMUs call hyst_output (blocked), Python records hyst_simulate (in place): same bits."""
+    import ctypes
+
+    from pysim import _kernel
+
+    lib = _kernel.library()
+    lib.hyst_output.argtypes = [ctypes.POINTER(_kernel.HystModel), ctypes.c_double,
+                                ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_double)]
+    lib.hyst_output.restype = ctypes.c_double
+    r = np.sort(rng.uniform(0, 0.9, n))
+    model = HysteresisModel(-0.7, 2.1, tuple(r), tuple(rng.normal(0.2, 0.3, n)), operator="osp",
+                            input_offset_V=0.05, output_offset_um=0.3, voltage_range_V=(0, 1), name="m")
+    v = random_piecewise_monotone(rng)
+    expected = model.simulate(v)
+    c_model = model._c_model()
+    state = np.zeros(n)
+    scratch = np.zeros(n)
+    got = np.empty_like(v)
+    for k, x in enumerate(v):
+        got[k] = lib.hyst_output(ctypes.byref(c_model), x, _kernel.as_pointer(state), _kernel.as_pointer(scratch))
+        state[:] = scratch
+    np.testing.assert_array_equal(got, expected)
