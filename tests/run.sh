@@ -17,4 +17,6 @@ if command -v apt-get >/dev/null 2>&1; then
 fi
 
 python3 -m pip install -q --disable-pip-version-check -e ".[test,bench]"
+# a pyenv-managed Python needs its shims refreshed to see new console scripts
+if command -v pyenv >/dev/null 2>&1; then pyenv rehash || true; fi
 python3 -m pytest -q

@@ -5,6 +5,7 @@ C runtime, and the darwin64 library holds both macOS architectures."""
 import re
 import shutil
 import subprocess
+import sys
 import zipfile
 from pathlib import Path
 
@@ -21,8 +22,17 @@ SCHEMA = Path(fmpy.__file__).resolve().parent / "schema" / "fmi2" / "fmi2ModelDe
 KINDS = ("plant", "inverse")
 
 
+def fmutool_program() -> str:
+    """The fmutool console script: on PATH, or beside this Python (a fresh
+    install may not have refreshed a version manager's shims yet)."""
+    beside = Path(sys.executable).parent / "fmutool"
+    found = shutil.which("fmutool") or (str(beside) if beside.exists() else None)
+    assert found, "fmutool is required (PyPI package fmu-manipulation-toolbox)"
+    return found
+
+
 def fmutool_check(path) -> str:
-    result = subprocess.run(["fmutool", "-input", str(path), "-check"], capture_output=True, text=True,
+    result = subprocess.run([fmutool_program(), "-input", str(path), "-check"], capture_output=True, text=True,
                             timeout=120)
     return result.stdout + result.stderr
 
@@ -166,4 +176,4 @@ def test_fmpy_loads_the_linux_binary_with_all_functions():
     slave.instantiate()
     assert slave.getVersion() == "2.0" and slave.getTypesPlatform() == "default"
     slave.freeInstance()
-    assert shutil.which("fmutool") and shutil.which("xmllint")
+    assert fmutool_program() and shutil.which("xmllint")
