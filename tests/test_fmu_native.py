@@ -2,7 +2,6 @@
 zig for every target, and a C driver (tests/c/fmu_driver.c) runs the whole
 calling sequence on the Linux binary natively and on the Windows DLL under
 wine -- with bit-identical outputs."""
-import os
 import shutil
 import subprocess
 import sys
@@ -15,6 +14,7 @@ from build_fmu.compile import FLAGS, PLATFORMS, fmi_include_dir
 from build_fmu.generate import fmu_sources
 from build_fmu.build import tool_version
 from fmu_src import SOURCE_DIR
+import robustness
 from fmu_testing import (DEFAULT_MODEL, built_fmus, extracted, from_hex, paper_signal, piecewise_monotone,
                          to_hex_lines, voltage_signal)
 from pysim.model import InverseCompensator
@@ -74,13 +74,9 @@ def drivers(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def wine(tmp_path_factory):
-    """Command and environment to run Windows programs: wine with a throwaway prefix."""
-    program = shutil.which("wine64") or shutil.which("wine")
-    assert program, "wine is required for the Windows DLL test (Debian package wine64)"
-    env = dict(os.environ, WINEPREFIX=str(tmp_path_factory.mktemp("wineprefix")), WINEDEBUG="-all",
-               WINEDLLOVERRIDES="mscoree,mshtml=")
-    return program, env
+def wine():
+    """Command and environment to run Windows programs (shared throwaway prefix)."""
+    return robustness.wine()
 
 
 def _inputs(kind):
