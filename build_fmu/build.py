@@ -46,9 +46,9 @@ def tool_version() -> str:
 
 def default_cache_dir() -> Path:
     """``$PIEZO_MPI_CACHE/fmu-binaries`` (default ``~/.cache/piezo-mpi``)."""
-    from pysim._kernel import _cache_dir
+    from pysim._kernel import cache_dir
 
-    return _cache_dir() / "fmu-binaries"
+    return cache_dir() / "fmu-binaries"
 
 
 def check_model(model, source="spec") -> str:

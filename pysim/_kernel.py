@@ -47,7 +47,8 @@ class HystModel(ctypes.Structure):
     ]
 
 
-def _cache_dir() -> Path:
+def cache_dir() -> Path:
+    """Folder for compiled artefacts (``$PIEZO_MPI_CACHE`` or ``~/.cache/piezo-mpi``)."""
     root = os.environ.get("PIEZO_MPI_CACHE")
     return Path(root) if root else Path.home() / ".cache" / "piezo-mpi"
 
@@ -100,7 +101,7 @@ def library() -> ctypes.CDLL:
         for name in _SOURCES:
             digest.update((SOURCE_DIR / name).read_bytes())
         digest.update(" ".join(compiler).encode())
-        target = _cache_dir() / digest.hexdigest()[:16] / _library_name()
+        target = cache_dir() / digest.hexdigest()[:16] / _library_name()
         if not target.exists():
             _build(target, compiler)
         lib = ctypes.CDLL(str(target))

@@ -476,6 +476,6 @@ def fmus_for_model(model, out_dir=None) -> tuple[Path, Path]:
 
     if out_dir is None:
         digest = hashlib.sha256(spec_source(model).encode()).hexdigest()[:12]
-        out_dir = _kernel._cache_dir() / "fmus" / f"{model.name}-{digest}"
+        out_dir = _kernel.cache_dir() / "fmus" / f"{model.name}-{digest}"
     paths = build_fmus(model, Path(out_dir), platforms=(platform,))
     return Path(paths["plant"]), Path(paths["inverse"])

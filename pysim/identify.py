@@ -72,10 +72,6 @@ class IdentificationResult:
     extra_coefficients: dict = field(default_factory=dict)
     objective: float = float("nan")
 
-    @property
-    def residual_um(self):
-        return self._measured - self.prediction_um
-
     def parameters(self) -> dict:
         """The model's parameters as plain numbers (for JSON)."""
         m = self.model
@@ -118,10 +114,9 @@ def regressors(voltage_V, thresholds_V, operator: str, input_offset_V: float, cu
         Index of each operator's column, or -1 for r = 0 operators (merged into a2).
     """
     r = np.asarray(thresholds_V, dtype=float)
+    # only the operator outputs are used: zero weights; simulate ignores the voltage range
     probe = HysteresisModel(0.0, 0.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
-                            input_offset_V=input_offset_V,
-                            voltage_range_V=(float(np.min(voltage_V)), float(np.max(voltage_V)) + 1e-300),
-                            name="probe")
+                            input_offset_V=input_offset_V, name="probe")
     _, operators = probe.simulate(voltage_V, return_operators=True)
     u = np.asarray(voltage_V, dtype=float) - input_offset_V
     cols = ([u**3] if cubic else []) + [u]
@@ -315,5 +310,4 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         prediction_um=prediction, errors=error_measures(y[first:stop], prediction[first:stop]),
         constraints_active=active, extra_coefficients=extra_coefficients,
         objective=float(residual @ residual))
-    result._measured = y
     return result
