@@ -53,7 +53,7 @@ def fresh_zig_cache(folder):
 
 
 def _timed_build(model, out_dir, platforms, **options) -> tuple:
-    from build_fmu import build_fmus
+    from pysim.fmu import build_fmus
 
     lines = []
     start = time.perf_counter()
@@ -72,7 +72,7 @@ def compile_times(progress_lines) -> dict:
 
 
 def measure(quick: bool = False, platforms=None, model=None) -> dict:
-    from models.default_mpi import MODEL
+    from pysim.specs.default_mpi import MODEL
 
     model = MODEL if model is None else model
     platforms = tuple(platforms or (("linux64",) if quick else ALL_PLATFORMS))

@@ -5,9 +5,9 @@ The record: 100 000 samples at 10 kHz (10 s) from the seeded synthetic
 generator of the tests (``tests/synthetic.py``): a random invertible MPI
 plant, a multisine input after a preconditioning triangle, a hidden
 second-order stage after the hysteresis (natural frequency fs/40, ζ = 0.2) and
-white sensor noise at SNR 10.  Timed: :func:`pysim.diagnose.diagnose` (split,
+white sensor noise at SNR 10.  Timed: :func:`pysim.diagnosis.diagnose.diagnose` (split,
 baseline fit, the four candidate fits, residual statistics; best of 3) and
-:func:`pysim.diagnose_report.write_report` (seven PNG plots and the summary).
+:func:`pysim.diagnosis.report.write_report` (seven PNG plots and the summary).
 Target: the diagnosis in seconds, <= 10 s.  Also checked: the hidden effect is
 named and the gain is above 50 %.
 
@@ -24,13 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import scipy.signal
-
 from bench_common import Row, at_most, spread, timings
-
-ROOT = Path(__file__).resolve().parents[1]
-for folder in (ROOT, ROOT / "tests"):
-    if str(folder) not in sys.path:
-        sys.path.insert(0, str(folder))
 
 N_SAMPLES = 100_000
 SAMPLE_RATE_HZ = 10_000.0
@@ -39,7 +33,7 @@ TARGET_S = 10.0
 
 def long_record(n_samples: int = N_SAMPLES, seed: int = 2014):
     """(voltage_V, displacement_um, hidden parameters) of the benchmark record."""
-    from synthetic import make_input, make_plant
+    from pysim.testing.synthetic import make_input, make_plant
 
     rng = np.random.default_rng(seed)
     v, _ = make_input(rng, "multisine", n_samples, 0.0, 150.0)
@@ -55,8 +49,8 @@ def long_record(n_samples: int = N_SAMPLES, seed: int = 2014):
 
 
 def measure(quick: bool = False) -> dict:
-    from pysim.diagnose import diagnose
-    from pysim.diagnose_report import write_report
+    from pysim.diagnosis.diagnose import diagnose
+    from pysim.diagnosis.report import write_report
 
     n = 30_000 if quick else N_SAMPLES
     v, y, hidden = long_record(n)

@@ -32,7 +32,6 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
-
 from bench_common import Row, at_most
 
 HERE = Path(__file__).resolve().parent
@@ -56,8 +55,9 @@ def scaled_model(n_operators: int):
     normalised threshold axis, so the total weight (and the loop's size) stays
     about the same as n grows.  n = 10 gives the default model itself.
     """
-    from models import default_mpi as d
-    from pysim.model import HysteresisModel, eq13_thresholds
+    from pysim.specs import default_mpi as d
+
+    from pysim.core.model import HysteresisModel, eq13_thresholds
 
     r_n = eq13_thresholds(n_operators, 1.0)
     b_n = 5.0 * np.exp(-0.505 * (r_n - 1.0) ** 2) / n_operators
@@ -88,8 +88,8 @@ def driver_table(lo: float, hi: float) -> np.ndarray:
 def compile_driver(out_dir) -> Path:
     """Compile c/step_driver.c for this machine (needs a C compiler and dlopen;
     the FMU is loaded by tests/c/fmi2_api.h)."""
-    from build_fmu.compile import fmi_include_dir
-    from pysim._kernel import host_compiler
+    from pysim.core.kernel import host_compiler
+    from pysim.fmu.compile import fmi_include_dir
 
     target = Path(out_dir) / "step_driver"
     cmd = host_compiler() + ["-O2", "-std=c99", "-Wall", "-Wextra", "-I", str(LOADER_DIR), "-I",
@@ -118,8 +118,9 @@ def debug_library(fmu_path, out_dir) -> Path:
     the builder's compiler and flags, but with symbols (``-g``, not stripped),
     so that a profile names the internal functions.  The instructions are the
     same as in the shipped binary; only the symbol table differs."""
-    from build_fmu.compile import FLAGS, PLATFORMS, fmi_include_dir, zig_cc
     from fmpy import read_model_description
+
+    from pysim.fmu.compile import FLAGS, PLATFORMS, fmi_include_dir, zig_cc
 
     ident = read_model_description(str(fmu_path)).coSimulation.modelIdentifier
     src = Path(out_dir) / f"{ident}_sources"
@@ -140,7 +141,7 @@ def debug_library(fmu_path, out_dir) -> Path:
 
 def build_step_fmus(n_operators: int, out_dir) -> dict:
     """Plant and inverse FMUs (linux64 only) of :func:`scaled_model`."""
-    from build_fmu import build_fmus
+    from pysim.fmu import build_fmus
 
     return build_fmus(scaled_model(n_operators), Path(out_dir), platforms=("linux64",))
 

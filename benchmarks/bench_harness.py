@@ -4,7 +4,7 @@
    inverse + plant chain, side by side in one run on the same FMUs:
    - a minimal raw ctypes loop (fmi2SetReal, fmi2GetReal, fmi2DoStep with
      prebuilt ctypes arguments, no status check, results into a list),
-   - the harness (:class:`pysim.harness.CoSimulation`, no stage),
+   - the harness (:class:`pysim.cosim.harness.CoSimulation`, no stage),
    - fmpy's ``FMU2Slave`` high-level calls (context),
    - ``fmpy.simulate_fmu`` with the input as a table and ``output_interval``
      equal to the step (plant only).
@@ -86,9 +86,9 @@ def _best(fn, repeat):
 def per_step_costs(plant_path, inverse_path, steps, repeat):
     """µs per step of each way of stepping, best of ``repeat``."""
     from fmpy import simulate_fmu
+    from pysim.specs.default_mpi import MODEL
 
-    from models.default_mpi import MODEL
-    from pysim.harness import CoSimulation
+    from pysim.cosim.harness import CoSimulation
 
     step = 1e-4
     k = np.arange(steps)
@@ -153,8 +153,8 @@ def straightforward_sweep(plant_path, inverse_path, stage, drive, amplitudes, of
     import control
     from fmpy import simulate_fmu
 
-    from pysim.bandwidth import crossing_frequency, fundamental, settling_periods
-    from pysim.stage import discretise, slowest_time_constant_s
+    from pysim.cosim.bandwidth import crossing_frequency, fundamental, settling_periods
+    from pysim.cosim.stage import discretise, slowest_time_constant_s
 
     tau = slowest_time_constant_s(stage)
     n = samples_per_period
@@ -189,10 +189,11 @@ def straightforward_sweep(plant_path, inverse_path, stage, drive, amplitudes, of
 
 
 def sweep_comparison(plant_path, inverse_path):
-    from models.default_mpi import MODEL
-    from models.flexure_stage import STAGE
-    from pysim.bandwidth import default_frequencies, measure_bandwidth
-    from pysim.harness import CoSimulation, NominalDrive
+    from pysim.specs.default_mpi import MODEL
+    from pysim.specs.flexure_stage import STAGE
+
+    from pysim.cosim.bandwidth import default_frequencies, measure_bandwidth
+    from pysim.cosim.harness import CoSimulation, NominalDrive
 
     amplitudes, offset, f = (7.5, 15.0, 30.0), 37.5, default_frequencies()
     drive = NominalDrive.from_model(MODEL)
@@ -218,8 +219,9 @@ def main(argv=None) -> int:
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args(argv)
 
-    from models.default_mpi import MODEL
-    from pysim.harness import fmus_for_model
+    from pysim.specs.default_mpi import MODEL
+
+    from pysim.cosim.harness import fmus_for_model
 
     plant, inverse = fmus_for_model(MODEL)
     us = per_step_costs(plant, inverse, args.steps, args.repeat)

@@ -4,7 +4,7 @@ against particle swarm optimisation (the paper's method, with pyswarms).
 Both minimise the same objective on the same samples: the sum of squared
 errors of the MPI model with the eq. 13 thresholds (10 one-sided play
 operators, input shifted to the bottom of the record's range) over the fit
-samples that :func:`pysim.identify.identify` uses (after its warm-up).  The
+samples that :func:`pysim.identification.identify.identify` uses (after its warm-up).  The
 12 unknowns are a1, a2, the weights of the nine operators with r > 0 (the
 r = 0 operator equals its input, so its weight lives in a2) and the output
 offset.  PSO runs in three variants:
@@ -39,7 +39,6 @@ import sys
 import time
 
 import numpy as np
-
 from bench_common import Row, at_least, spread, timings
 
 N_OPERATORS = 10
@@ -65,7 +64,7 @@ def synthetic_record(n_samples: int, noise_um: float = 0.05, samples_per_period:
     model's voltage range, so eq. 13 over the record gives the model's own
     thresholds.
     """
-    from models.default_mpi import MODEL
+    from pysim.specs.default_mpi import MODEL
 
     t = np.arange(n_samples) / samples_per_period
     lo, hi = MODEL.voltage_range_V
@@ -82,7 +81,7 @@ def synthetic_record(n_samples: int, noise_um: float = 0.05, samples_per_period:
 def datasets() -> dict:
     """``{name: (voltage_V, displacement_um)}``: the shipped records and a
     synthetic one."""
-    from pysim.data import SHIPPED_DATASETS, load_measured, shipped_dataset
+    from pysim.identification.data import SHIPPED_DATASETS, load_measured, shipped_dataset
 
     out = {}
     for name in sorted(SHIPPED_DATASETS):
@@ -104,9 +103,9 @@ class Problem:
     """
 
     def __init__(self, voltage_V, displacement_um, fit_slice: slice):
-        from pysim import _kernel
-        from pysim.identify import regressors
-        from pysim.model import OPERATOR_KINDS, eq13_thresholds
+        from pysim.core import kernel as _kernel
+        from pysim.core.model import OPERATOR_KINDS, eq13_thresholds
+        from pysim.identification.identify import regressors
 
         self.v = _kernel.contiguous(voltage_V)
         self.y = np.asarray(displacement_um, dtype=float)
@@ -176,7 +175,7 @@ class Problem:
         return out
 
     def errors(self, theta) -> dict:
-        from pysim.metrics import error_measures
+        from pysim.core.metrics import error_measures
 
         return error_measures(self.y_fit, self.A_fit @ theta)
 
@@ -205,7 +204,7 @@ def pso_bounds(voltage_V, displacement_um, fit_slice) -> tuple:
 # ------------------------------------------------------------------- runs
 def ours(voltage_V, displacement_um, repeat: int) -> dict:
     """Our identification: the result and its timings."""
-    from pysim.identify import identify
+    from pysim.identification.identify import identify
 
     result = identify(voltage_V, displacement_um, n_operators=N_OPERATORS)
     times = timings(lambda: identify(voltage_V, displacement_um, n_operators=N_OPERATORS), repeat)
@@ -271,7 +270,7 @@ def compare(name, voltage_V, displacement_um, particles, iterations, seeds, repe
 
 def scaling(lengths, repeat: int) -> dict:
     """Our identification time (s) against the record length (synthetic)."""
-    from pysim.identify import identify
+    from pysim.identification.identify import identify
 
     out = {}
     for n in lengths:

@@ -15,10 +15,10 @@ import time
 from pathlib import Path
 
 import numpy as np
-
 from bench_common import Row, at_most
-from pysim.data import MeasuredData, load_measured, save_measured
-from pysim.errors import DataError
+
+from pysim.identification.errors import DataError
+from pysim.identification.data import MeasuredData, load_measured, save_measured
 
 LOAD_LIMIT_S = 5.0
 

@@ -40,8 +40,9 @@ def _parser() -> argparse.ArgumentParser:
 def _harness(quick: bool):
     import bench_harness
     from bench_common import Row, at_least, at_most
-    from models.default_mpi import MODEL
-    from pysim.harness import fmus_for_model
+    from pysim.specs.default_mpi import MODEL
+
+    from pysim.cosim.harness import fmus_for_model
 
     plant, inverse = fmus_for_model(MODEL)
     us = bench_harness.per_step_costs(plant, inverse, 20_000 if quick else 100_000, 3 if quick else 5)
@@ -62,8 +63,9 @@ def _harness(quick: bool):
 def _sweep(quick: bool):
     import bench_harness
     from bench_common import Row, at_least
-    from models.default_mpi import MODEL
-    from pysim.harness import fmus_for_model
+    from pysim.specs.default_mpi import MODEL
+
+    from pysim.cosim.harness import fmus_for_model
 
     plant, inverse = fmus_for_model(MODEL)
     result = bench_harness.sweep_comparison(plant, inverse)

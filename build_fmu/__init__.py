@@ -1,14 +1,8 @@
-"""FMI 2.0 co-simulation FMUs of a hysteresis model spec.
+"""``build-fmu``: the command line of the FMU builder :mod:`pysim.fmu`.
 
-``build_fmus(spec_or_model, out_dir, platforms=...) -> {"plant": Path, "inverse": Path}``
-builds the plant FMU (``voltage`` V -> ``displacement`` um) and the inverse
-compensator FMU (``displacement_ref`` um -> ``voltage`` V) from the hand-written
-C sources in ``fmu_src/``; ``build-fmu`` is its command line.  For an extended
-spec (:class:`pysim.extended.ExtendedModel`) the plant carries the output
-stages and steps at the spec's sample period only, and the inverse
-compensates the hysteresis part alone.
+``build_fmus`` is re-exported here for scripts written against earlier
+versions; new code imports it from :mod:`pysim.fmu`.
 """
-from build_fmu.build import DEFAULT_PLATFORMS, BuildError, build_fmus
-from build_fmu.compile import PLATFORMS, ToolchainError
+from pysim.fmu import DEFAULT_PLATFORMS, PLATFORMS, BuildError, ToolchainError, build_fmus
 
 __all__ = ["build_fmus", "BuildError", "ToolchainError", "DEFAULT_PLATFORMS", "PLATFORMS"]

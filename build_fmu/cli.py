@@ -1,13 +1,12 @@
 """``build-fmu SPEC [-o DIR] [--platforms ...]``: the command-line front end
-of :func:`build_fmu.build_fmus`."""
+of :func:`pysim.fmu.build_fmus`."""
 from __future__ import annotations
 
 import argparse
 import sys
 
-from build_fmu.build import DEFAULT_PLATFORMS, build_fmus
-from build_fmu.compile import PLATFORMS, ToolchainError
-from pysim.errors import UserError
+from pysim.core.errors import PiezoMPIError
+from pysim.fmu import DEFAULT_PLATFORMS, PLATFORMS, ToolchainError, build_fmus
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -18,7 +17,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "<name>_inverse.fmu (displacement_ref in um -> voltage in V).  For an extended spec "
                     "(written by pysim diagnose --out) the plant includes the output stages and steps at the "
                     "spec's sample period only; the inverse compensates the hysteresis part alone.")
-    parser.add_argument("spec", help="spec file (.py defining MODEL), module, or name in models/")
+    parser.add_argument("spec", help="spec file (.py defining MODEL), module, or name of a shipped spec (default_mpi)")
     parser.add_argument("-o", "--output", default=".", metavar="DIR", help="folder for the FMUs (default: .)")
     parser.add_argument("--platforms", nargs="+", default=list(DEFAULT_PLATFORMS), choices=sorted(PLATFORMS),
                         metavar="PLATFORM",
@@ -33,12 +32,12 @@ def main(argv=None) -> int:
     progress = None if args.quiet else (lambda message: print(f"build-fmu: {message}", flush=True))
     try:
         build_fmus(args.spec, args.output, args.platforms, use_cache=not args.no_cache, progress=progress)
-    except UserError as exc:
-        print(f"build-fmu: error: {exc}", file=sys.stderr)
-        return 2
     except ToolchainError as exc:
         print(f"build-fmu: error: {exc}", file=sys.stderr)
         return 1
+    except PiezoMPIError as exc:
+        print(f"build-fmu: error: {exc}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("build-fmu: interrupted", file=sys.stderr)
         return 130

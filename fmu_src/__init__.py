@@ -1,4 +1,5 @@
-"""C sources of the FMUs and of the host hysteresis kernel (shipped as package data)."""
-from pathlib import Path
+"""C sources of the FMUs and of the host hysteresis kernel.
 
-SOURCE_DIR = Path(__file__).resolve().parent
+Installed as the package data ``pysim.core.csrc``; :mod:`pysim.core.toolchain`
+names the folder (``SOURCE_DIR``).
+"""

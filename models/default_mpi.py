@@ -18,7 +18,7 @@ nominal 75 µm travel of the paper's flexure stage (Table III asks for up to
 """
 import numpy as np
 
-from pysim.model import HysteresisModel
+from pysim.core.model import HysteresisModel
 
 N_OPERATORS = 10
 VOLTAGE_SPAN_V = 150.0

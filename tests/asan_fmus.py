@@ -1,19 +1,14 @@
 """pytest plugin (``-p asan_fmus``) used by tests/test_memory.py: the FMU tests
 run against FMUs whose linux64 binary is a sanitized build.
 
-``PIEZO_SANITIZED_FMUS`` holds ``plant=PATH<pathsep>inverse=PATH``; the
-plugin makes ``fmu_testing.built_fmus()`` return those FMUs for the default
-spec (every other model is built as usual).  It must be loaded before the
-test modules import ``built_fmus``, which ``-p`` does."""
+``PIEZO_SANITIZED_FMUS`` holds ``plant=PATH<pathsep>inverse=PATH``;
+:func:`pysim.testing.fmus.built_fmus`, the one build path of the tests, then
+returns those FMUs for the default spec (every other model is built as
+usual).  This plugin routes fmpy's allocations through the sanitizer; it must
+be loaded before fmpy builds its callbacks, which ``-p`` does."""
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
-
-def _swapped() -> dict:
-    text = os.environ.get("PIEZO_SANITIZED_FMUS", "")
-    return {kind: Path(path) for kind, path in (item.split("=", 1) for item in text.split(os.pathsep) if item)}
+from pysim.testing.fmus import sanitized_fmus
 
 
 def _allocate_through_the_sanitizer():
@@ -33,22 +28,10 @@ def _allocate_through_the_sanitizer():
 
 
 def pytest_configure(config):
-    swapped = _swapped()
-    if not swapped:
-        return
-    _allocate_through_the_sanitizer()
-    import fmu_testing
-
-    original = fmu_testing.built_fmus
-
-    def built_fmus(model=fmu_testing.DEFAULT_MODEL, platforms=fmu_testing.ALL_PLATFORMS):
-        if model == fmu_testing.DEFAULT_MODEL and "linux64" in platforms:
-            return dict(swapped)
-        return original(model, platforms)
-
-    fmu_testing.built_fmus = built_fmus
+    if sanitized_fmus():
+        _allocate_through_the_sanitizer()
 
 
 def pytest_report_header(config):
-    swapped = _swapped()
+    swapped = sanitized_fmus()
     return f"sanitized FMUs: {', '.join(swapped)}" if swapped else None

@@ -1,15 +1,12 @@
-"""Shared fixtures: the paper's example model and inputs."""
-import sys
-from pathlib import Path
+"""Shared fixtures: the paper's example model and inputs.
 
+The suite tests the installed package (``pip install .`` or a wheel): nothing
+here puts the source tree on ``sys.path``.
+"""
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
-
-from pysim.model import HysteresisModel, eq13_thresholds  # noqa: E402
+from pysim.core.model import HysteresisModel, eq13_thresholds
 
 
 def paper_model(a1=-0.8, n=10, operator="osp", voltage_range=(0.0, 1.0)):
@@ -41,3 +38,23 @@ def random_piecewise_monotone(rng, n_segments=40, lo=0.0, hi=1.0, points_per_seg
 @pytest.fixture
 def rng():
     return np.random.default_rng(20141)
+
+
+def pytest_configure(config):
+    """Under ``tests/run.sh`` the suite must test the installed wheel, not this checkout."""
+    import os
+    from pathlib import Path
+
+    import pysim
+
+    if os.environ.get("PIEZO_MPI_TEST_INSTALLED"):
+        repo = Path(os.environ.get("PIEZO_MPI_REPO", Path(__file__).resolve().parents[1])).resolve()
+        where = Path(pysim.__file__).resolve()
+        if repo in where.parents:
+            raise pytest.UsageError(f"pysim is imported from the checkout ({where}), not from the installed package")
+
+
+def pytest_report_header(config):
+    import pysim
+
+    return f"pysim {pysim.__version__} from {pysim.__file__}"

@@ -1,28 +1,22 @@
-"""FMUs for the co-simulation tests, built once through the project's builder
-(cached in the package cache, so later test modules get them at once)."""
+"""FMUs for the co-simulation tests, from the one build path of
+:mod:`pysim.testing.fmus` (so the sanitizer swap reaches these tests too)."""
 import pytest
 
-from models.default_mpi import MODEL
-from pysim.harness import fmus_for_model
-from pysim.model import HysteresisModel
-
-# "Hysteresis switched off": one operator of zero weight, a1 = 0, so the plant
-# is the straight line 0.5 µm/V through the origin, as an FMU like any other.
-LINEAR = HysteresisModel(a1=0.0, a2=0.5, thresholds_V=(0.0,), weights_um_per_V=(0.0,),
-                         voltage_range_V=(0.0, 150.0), name="linear_plant",
-                         description="hysteresis switched off (test plant)")
+from pysim.testing.fmus import DEFAULT_MODEL, LINEAR_MODEL, built_fmus
 
 
 @pytest.fixture(scope="session")
 def linear_model():
-    return LINEAR
+    return LINEAR_MODEL
 
 
 @pytest.fixture(scope="session")
 def linear_fmus():
-    return fmus_for_model(LINEAR)
+    paths = built_fmus(LINEAR_MODEL, ("linux64",))
+    return paths["plant"], paths["inverse"]
 
 
 @pytest.fixture(scope="session")
 def default_fmus():
-    return fmus_for_model(MODEL)
+    paths = built_fmus(DEFAULT_MODEL, ("linux64",))
+    return paths["plant"], paths["inverse"]

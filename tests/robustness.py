@@ -8,7 +8,6 @@ import os
 import re
 import shutil
 import subprocess
-import sys
 import zipfile
 from dataclasses import dataclass
 from functools import lru_cache
@@ -16,14 +15,15 @@ from pathlib import Path
 
 from fmpy import read_model_description
 
-from build_fmu.compile import FLAGS, PLATFORMS, fmi_include_dir
-from fmu_testing import _temporary_folder, built_fmus, extracted
+from pysim.core.toolchain import zig_cc
+from pysim.fmu.compile import FLAGS, PLATFORMS, fmi_include_dir
+from pysim.testing.fmus import built_fmus, extracted, temporary_folder
 
 TESTS = Path(__file__).resolve().parent
 C_DIR = TESTS / "c"
 FUZZ_DIR = TESTS / "fuzz"
 KINDS = ("plant", "inverse")
-ZIG = [sys.executable, "-m", "ziglang", "cc"]
+ZIG = zig_cc()
 WARNINGS = ["-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
 # Sanitized builds: every finding is fatal (no recovery), frames kept for reports.
 SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", "-g", "-O1"]
@@ -77,7 +77,7 @@ def compile_c(command, cwd) -> None:
 def misuse_driver(variant: str) -> Path:
     """tests/c/fmu_misuse.c compiled: "linux" (gcc, -O2 -g), "asan" (gcc with
     the sanitizers) or "windows" (zig, for wine)."""
-    folder = _temporary_folder(f"misuse-{variant}-")
+    folder = temporary_folder(f"misuse-{variant}-")
     include = ["-I", str(fmi_include_dir()), "-I", str(C_DIR)]
     source = str(C_DIR / "fmu_misuse.c")
     if variant == "windows":
@@ -97,7 +97,7 @@ def sanitized_library(kind: str) -> Path:
     """The FMU's own sources/ (hand-written C plus its generated configuration)
     built as a Linux shared library with ASan + UBSan (gcc)."""
     pair = fmu_pair()
-    folder = _temporary_folder(f"asan-{kind}-")
+    folder = temporary_folder(f"asan-{kind}-")
     out = folder / (pair.identifiers[kind] + ".so")
     src = pair.sources(kind)
     include = ["-I", str(src), "-I", str(fmi_include_dir())]
@@ -111,7 +111,7 @@ def sanitized_fmu(kind: str) -> Path:
     """A copy of the FMU whose linux64 binary is the sanitized build."""
     pair = fmu_pair()
     original = pair.fmus[kind]
-    out = _temporary_folder(f"asan-fmu-{kind}-") / original.name
+    out = temporary_folder(f"asan-fmu-{kind}-") / original.name
     member = f"binaries/linux64/{pair.identifiers[kind]}.so"
     with zipfile.ZipFile(original) as source, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as target:
         for item in source.infolist():
@@ -139,7 +139,7 @@ def wine() -> tuple:
     """(program, environment) to run Windows programs: wine with a throwaway prefix."""
     program = shutil.which("wine64") or shutil.which("wine")
     assert program, "wine is required for the Windows binaries (Debian packages wine, wine64)"
-    env = dict(os.environ, WINEPREFIX=str(_temporary_folder("wineprefix-")), WINEDEBUG="-all",
+    env = dict(os.environ, WINEPREFIX=str(temporary_folder("wineprefix-")), WINEDEBUG="-all",
                WINEDLLOVERRIDES="mscoree,mshtml=")
     return program, env
 

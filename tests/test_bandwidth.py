@@ -5,12 +5,19 @@ import math
 import control
 import numpy as np
 import pytest
+from pysim.specs.default_mpi import MODEL
+from pysim.specs.flexure_stage import STAGE
 
-from models.default_mpi import MODEL
-from models.flexure_stage import STAGE
-from pysim.bandwidth import (crossing_frequency, default_frequencies, fundamental, measure_bandwidth,
-                             settling_periods, stepped_sine, summary)
-from pysim.harness import CoSimulation, NominalDrive
+from pysim.cosim.bandwidth import (
+    crossing_frequency,
+    default_frequencies,
+    fundamental,
+    measure_bandwidth,
+    settling_periods,
+    stepped_sine,
+    summary,
+)
+from pysim.cosim.harness import CoSimulation, NominalDrive
 
 pytest_plugins = ["fmu_fixtures"]  # the FMUs, built once
 

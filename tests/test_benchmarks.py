@@ -26,8 +26,7 @@ import bench_identify  # noqa: E402
 import bench_load_measured  # noqa: E402
 import run_all  # noqa: E402
 from bench_common import Row  # noqa: E402
-
-from models.default_mpi import MODEL  # noqa: E402
+from pysim.specs.default_mpi import MODEL  # noqa: E402
 
 
 # ------------------------------------------------------------- FMU step cost
@@ -103,7 +102,7 @@ def test_function_split_names_the_fmi_calls(step_setup):
 # ------------------------------------------------------------ identification
 @pytest.fixture(scope="module")
 def noise_free_problem():
-    from pysim.identify import identify
+    from pysim.identification.identify import identify
 
     v, y = bench_identify.synthetic_record(3000, noise_um=0.0)
     result = identify(v, y, n_operators=bench_identify.N_OPERATORS)

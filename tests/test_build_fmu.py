@@ -9,15 +9,15 @@ import zipfile
 
 import numpy as np
 import pytest
+from pysim.specs.default_mpi import MODEL
 
-from build_fmu import BuildError, build_fmus, macho
 from build_fmu.cli import main
-from build_fmu.generate import config_header, model_guid
-from build_fmu.package import fmu_bytes
-from build_fmu.variables import variables
-from models.default_mpi import MODEL
-from pysim.model import HysteresisModel
-from pysim.spec import write_spec
+from pysim.core.model import HysteresisModel
+from pysim.core.spec import write_spec
+from pysim.fmu import BuildError, build_fmus, macho
+from pysim.fmu.generate import config_header, model_guid
+from pysim.fmu.package import fmu_bytes
+from pysim.fmu.variables import variables
 
 
 def paper_a1_model():

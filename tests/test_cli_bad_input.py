@@ -19,13 +19,13 @@ import zipfile
 from pathlib import Path
 
 import pytest
-
-from build_fmu import build_fmus
-from build_fmu.cli import main as build_fmu_main
-from fmu_testing import DEFAULT_MODEL
-from pysim.cli import main as pysim_main
 from robustness import fmu_pair
 from test_data import BAD_FILES
+
+from build_fmu.cli import main as build_fmu_main
+from pysim.cli.main import main as pysim_main
+from pysim.fmu import build_fmus
+from pysim.testing.fmus import DEFAULT_MODEL
 
 ROOT = Path(__file__).resolve().parents[1]
 BAD = ROOT / "tests" / "fixtures" / "bad"
@@ -85,7 +85,7 @@ def test_layout_options_that_do_not_fit_the_file(tmp_path, capsys, command, opti
 
 
 # ----------------------------------------------------------------- build-fmu
-MODEL_IMPORT = "from pysim.model import HysteresisModel\n"
+MODEL_IMPORT = "from pysim.core.model import HysteresisModel\n"
 # a2 = 1 um/V, a1 = -1e-4 um/V^3, one operator of zero weight: the slope
 # 1 - 3e-4 v^2 falls to 0 at v = sqrt(1 / 3e-4) V, inside the 0..150 V range
 NOT_INVERTIBLE = (MODEL_IMPORT + "MODEL = HysteresisModel(a1=-1e-4, a2=1.0, thresholds_V=(0.0,), "
@@ -181,9 +181,9 @@ def test_bandwidth_refuses_a_spec_without_inverse_naming_the_voltage(tmp_path, c
 
 # ------------------------------------------------ the real programs, once each
 @pytest.mark.parametrize("command", [
-    [sys.executable, "-m", "pysim.cli", "diagnose", str(BAD / "nan.csv")],
+    [sys.executable, "-m", "pysim.cli.main", "diagnose", str(BAD / "nan.csv")],
     [sys.executable, "-m", "build_fmu.cli", "no_such_spec.py", "-o", "out"],
-    [sys.executable, "-m", "pysim.cli", "bandwidth", "--plant", "missing.fmu", "--inverse", "missing.fmu"],
+    [sys.executable, "-m", "pysim.cli.main", "bandwidth", "--plant", "missing.fmu", "--inverse", "missing.fmu"],
 ], ids=["diagnose", "build-fmu", "bandwidth"])
 def test_programs_exit_with_code_2_and_one_line(tmp_path, command):
     result = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=120,

@@ -12,7 +12,7 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
 def pysim(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "pysim.cli", *map(str, args)], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "pysim.cli.main", *map(str, args)], capture_output=True,
                           text=True, cwd=cwd, timeout=600)
 
 

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pysim.cli import main
-from pysim.data import load_measured, shipped_dataset
-from pysim.identify import identify
-from pysim.spec import load_spec
+from pysim.cli.main import main
+from pysim.core.spec import load_spec
+from pysim.identification.data import load_measured, shipped_dataset
+from pysim.identification.identify import identify
 
 ROOT = Path(__file__).resolve().parents[1]
 BAD = sorted((ROOT / "tests" / "fixtures" / "bad").iterdir())
@@ -44,7 +44,7 @@ def test_identify_writes_a_spec_that_reproduces_the_fit(tmp_path, capsys, name):
 def test_identify_table_and_other_layouts(tmp_path):
     raw = ROOT.parent / "shared" / "data" / "discrete_backlash" / "Model_Vi_Do.dat"
     result = subprocess.run(
-        [sys.executable, "-m", "pysim.cli", "identify", str(raw), "--no-header", "--voltage-column", "1",
+        [sys.executable, "-m", "pysim.cli.main", "identify", str(raw), "--no-header", "--voltage-column", "1",
          "--displacement-column", "5", "--sample-rate", "200", "--model", "cpi", "--operators", "6"],
         capture_output=True, text=True, cwd=tmp_path)
     assert result.returncode == 0, result.stderr
@@ -55,7 +55,7 @@ def test_identify_table_and_other_layouts(tmp_path):
 @pytest.mark.parametrize("bad", BAD, ids=[p.name for p in BAD])
 def test_bad_files_exit_2_with_one_line_and_write_nothing(tmp_path, bad):
     spec = tmp_path / "out.py"
-    result = subprocess.run([sys.executable, "-m", "pysim.cli", "identify", str(bad), "--out", str(spec)],
+    result = subprocess.run([sys.executable, "-m", "pysim.cli.main", "identify", str(bad), "--out", str(spec)],
                             capture_output=True, text=True)
     assert result.returncode == 2
     message = result.stderr.strip()
@@ -74,9 +74,22 @@ def test_missing_file_and_bad_options(tmp_path, capsys):
     assert "--operators" in capsys.readouterr().err
     assert main(["identify", str(good), "--out", str(tmp_path / "no" / "dir" / "x.py")]) == 2
     assert "does not exist" in capsys.readouterr().err
-    assert main(["identify", str(good), "--out", str(tmp_path / "1bad-name.py")]) == 2
+    assert main(["identify", str(good), "--out", str(tmp_path / "x.py"), "--name", "bad-name"]) == 2
     assert "identifier" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_spec_file_names_that_are_no_identifiers_give_a_valid_model_name(tmp_path, capsys):
+    good = tmp_path / "good.csv"
+    t = np.arange(400) / 200.0
+    v = 1.8 + 1.8 * np.sin(2 * np.pi * t)
+    good.write_text("time_s,voltage_V,displacement_um\n" + "".join(
+        f"{a:.17g},{b:.17g},{3 * b + 0.1 * np.sin(b):.17g}\n" for a, b in zip(t, v)))
+    for file_name, model_name in (("x-y.py", "x_y"), ("1bad-name.py", "m_1bad_name"), ("run 2.py", "run_2")):
+        out = tmp_path / file_name
+        assert main(["identify", str(good), "--out", str(out)]) == 0
+        assert load_spec(out).name == model_name
+    capsys.readouterr()
 
 
 def test_too_few_samples_for_the_parameters(tmp_path, capsys):

@@ -1,4 +1,4 @@
-"""Tests of pysim.data: the measured-data loader, its error messages and the
+"""Tests of pysim.identification.data: the measured-data loader, its error messages and the
 shipped data sets.
 
 Truths used: numbers written to a file by hand (or as exact decimals) must come
@@ -15,9 +15,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pysim.data import (COLUMNS, SHIPPED_DATASETS, MeasuredData, estimate_sample_rate, load_measured,
-                        require_samples, save_measured, shipped_dataset)
-from pysim.errors import DataError, UserError
+from pysim.identification.data import (
+    COLUMNS,
+    SHIPPED_DATASETS,
+    MeasuredData,
+    estimate_sample_rate,
+    load_measured,
+    require_samples,
+    save_measured,
+    shipped_dataset,
+)
+from pysim.identification.errors import DataError
 
 REPO = Path(__file__).resolve().parent.parent
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
@@ -393,5 +401,5 @@ def test_converter_reproduces_the_shipped_files(tmp_path):
 
 
 def test_unknown_shipped_dataset():
-    with pytest.raises(UserError, match="discrete_backlash, smart_hysteresis"):
+    with pytest.raises(DataError, match="discrete_backlash, smart_hysteresis"):
         shipped_dataset("nope")

@@ -17,13 +17,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pysim.data import MeasuredData, save_measured, shipped_dataset
-from pysim.diagnose import CAUSES, diagnose, input_period, split_record
-from pysim.extended import ExtendedModel
-from pysim.residuals import (cross_correlation, dominant_frequency, input_changes, noise_sigma,
-                             time_since_change)
-from pysim.spec import load_spec
-from synthetic import EFFECTS, make_case
+from pysim.core.extended import ExtendedModel
+from pysim.core.spec import load_spec
+from pysim.diagnosis.diagnose import CAUSES, diagnose, input_period, split_record
+from pysim.diagnosis.residuals import (
+    cross_correlation,
+    dominant_frequency,
+    input_changes,
+    noise_sigma,
+    time_since_change,
+)
+from pysim.identification.data import MeasuredData, save_measured, shipped_dataset
+from pysim.testing.synthetic import EFFECTS, make_case
 
 SEEDS = range(60)
 MIN_GAIN_PCT = 50.0
@@ -52,7 +57,7 @@ def test_hidden_effect_is_named_and_removed(outcomes, seed):
         assert result.gain_pct >= MIN_GAIN_PCT, detail
         # the extended model is the spec of the named effect, simulated over the whole record
         model = result.extended.model
-        assert isinstance(model, ExtendedModel) and model.has_stages
+        assert isinstance(model, ExtendedModel) and model.stages.present
         np.testing.assert_allclose(model.simulate(case.voltage_V), result.extended.prediction_um, atol=1e-9)
 
 
@@ -169,7 +174,7 @@ def _write_case(tmp_path, seed) -> Path:
 
 
 def _pysim(*args):
-    return subprocess.run([sys.executable, "-m", "pysim.cli", "diagnose", *map(str, args)],
+    return subprocess.run([sys.executable, "-m", "pysim.cli.main", "diagnose", *map(str, args)],
                           capture_output=True, text=True)
 
 
@@ -191,7 +196,7 @@ def test_cli_json_report_and_spec(tmp_path):
     assert "Cause named: `delay`" in (report / "summary.md").read_text(encoding="utf-8")
     model = load_spec(spec)
     assert isinstance(model, ExtendedModel) and model.name == "delayed_plant"
-    assert model.delay_samples == pytest.approx(make_case(seed).parameters["delay_samples"], abs=0.05)
+    assert model.stages.delay_samples == pytest.approx(make_case(seed).parameters["delay_samples"], abs=0.05)
 
 
 def test_cli_text_on_shipped_data():

@@ -2,25 +2,31 @@
 implementations (scipy filters, numpy shifts and polynomials), state carrying,
 validation, spec round trip, and identification through a linear stage."""
 import ctypes
-from dataclasses import fields
 
 import numpy as np
 import pytest
 import scipy.signal
-
 from conftest import paper_input, paper_model, random_piecewise_monotone
-from pysim.extended import (ExtendedModel, ExtendedState, OutputStages, _library, tustin_creep_mode,
-                            tustin_first_order, tustin_second_order)
-from pysim.identify import identify
-from pysim.model import HysteresisModel
-from pysim.spec import load_spec, write_spec
+
+from pysim.core.extended import (
+    ExtendedModel,
+    ExtendedState,
+    OutputStages,
+    StageSpec,
+    _library,
+    tustin_creep_mode,
+    tustin_first_order,
+    tustin_second_order,
+)
+from pysim.core.model import HysteresisModel
+from pysim.core.spec import load_spec, write_spec
+from pysim.identification.identify import identify
 
 T = 1e-3
 
 
 def _extended(model: HysteresisModel, **stages) -> ExtendedModel:
-    base = {f.name: getattr(model, f.name) for f in fields(HysteresisModel) if f.init}
-    return ExtendedModel(**base, **stages)
+    return ExtendedModel(model, StageSpec(**stages))
 
 
 def _section_tf(section):
@@ -141,7 +147,7 @@ def test_invalid_stages_are_refused(kwargs, message):
 
 def test_c_check_refuses_bad_struct_without_crashing():
     lib = _library()
-    from pysim.extended import OutputStagesStruct
+    from pysim.core.extended import OutputStagesStruct
     bad = OutputStagesStruct(2, None, 0, 0.0, 0, None, None, None, 0, None)   # 2 sections, no array
     assert lib.ostage_check(ctypes.byref(bad)) == 2
     assert lib.ostage_state_size(ctypes.byref(bad)) == 0
@@ -167,7 +173,7 @@ def test_model_is_hysteresis_followed_by_independent_stages():
     model = _model()
     v = paper_input(4001, 4.0)
     y = model.simulate(v)
-    h = model.hysteresis_part().simulate(v)
+    h = model.hysteresis.simulate(v)
     b, a = _section_tf(tustin_second_order(20.0, 0.2, T))
     g, _ = scipy.signal.lfilter(b, a, h, zi=scipy.signal.lfilter_zi(b, a) * h[0])
     expected = np.concatenate((np.full(2, g[0]), g[:-2]))
@@ -196,15 +202,15 @@ def test_plain_extended_model_equals_hysteresis_model():
     model = _extended(base)
     v = paper_input(2001, 5.0)
     np.testing.assert_array_equal(model.simulate(v), base.simulate(v))
-    assert not model.has_stages
-    assert model.hysteresis_part() == base
+    assert not model.stages.present
+    assert model.hysteresis == base
     assert model.major_loop_gain() == pytest.approx(base.major_loop_gain(), rel=1e-15)
 
 
 def test_static_gain_includes_creep():
     model = _model()
-    assert model.stage_static_gain() == pytest.approx(1.0, abs=1e-12)
-    assert model.major_loop_gain() == pytest.approx(model.hysteresis_part().major_loop_gain() + 0.3, rel=1e-12)
+    assert model.stages.static_gain() == pytest.approx(1.0, abs=1e-12)
+    assert model.major_loop_gain() == pytest.approx(model.hysteresis.major_loop_gain() + 0.3, rel=1e-12)
 
 
 @pytest.mark.parametrize("changes, message", [
@@ -230,13 +236,13 @@ def test_spec_round_trip(tmp_path):
 
 def test_stage_parameters_are_what_the_c_stages_run():
     model = _model()
-    p = model.stage_parameters()
+    p = model.stages.coefficients()
     assert p["delay_whole"] == 2 and p["delay_fraction"] == 0.0
     rebuilt = OutputStages(p["sections"], p["delay_whole"] + p["delay_fraction"], p["creep_alpha"],
                            p["creep_beta"], p["creep_weights"], p["drift"])
     v = paper_input(1001, 2.0)
-    h = model.hysteresis_part().simulate(v)
-    y, _ = rebuilt.run(h, v - model.input_offset_V, np.arange(v.size) * T)
+    h = model.hysteresis.simulate(v)
+    y, _ = rebuilt.run(h, v - model.hysteresis.input_offset_V, np.arange(v.size) * T)
     np.testing.assert_array_equal(y, model.simulate(v))
 
 

@@ -6,7 +6,7 @@ import ctypes
 import numpy as np
 import pytest
 
-from fmu_testing import DEFAULT_MODEL, DISCARD, ERROR, OK, RawFMU, built_fmus, voltage_signal
+from pysim.testing.fmus import DEFAULT_MODEL, DISCARD, ERROR, OK, RawFMU, built_fmus, voltage_signal
 
 MODEL = DEFAULT_MODEL
 DOUBLE1 = (ctypes.c_double * 1)(1.0)

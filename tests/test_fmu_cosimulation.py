@@ -12,9 +12,19 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
-from fmu_testing import (DEFAULT_MODEL, ERROR, OK, WARNING, RawFMU, built_fmus, extracted, paper_signal,
-                         piecewise_monotone, voltage_signal)
-from pysim.model import InverseCompensator
+from pysim.core.model import InverseCompensator
+from pysim.testing.fmus import (
+    DEFAULT_MODEL,
+    ERROR,
+    OK,
+    WARNING,
+    RawFMU,
+    built_fmus,
+    extracted,
+    paper_signal,
+    piecewise_monotone,
+    voltage_signal,
+)
 
 MODEL = DEFAULT_MODEL
 LO, HI = MODEL.voltage_range_V

@@ -8,7 +8,6 @@ import re
 import subprocess
 import sys
 import zipfile
-from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -18,12 +17,12 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
-from build_fmu import build_fmus
-from build_fmu.variables import variables
-from fmu_testing import ALL_PLATFORMS, DEFAULT_MODEL, ERROR, OK, WARNING, RawFMU, built_fmus, extracted
-from pysim.extended import ExtendedModel
-from pysim.model import HysteresisModel, InverseCompensator
-from pysim.spec import load_spec
+from pysim.core.extended import ExtendedModel, StageSpec
+from pysim.core.model import HysteresisModel, InverseCompensator
+from pysim.core.spec import load_spec
+from pysim.fmu import build_fmus
+from pysim.fmu.variables import variables
+from pysim.testing.fmus import ALL_PLATFORMS, DEFAULT_MODEL, ERROR, OK, WARNING, RawFMU, built_fmus, extracted
 
 T = 2e-4                                   # s: 5 kHz, as on a typical rig
 # offsets on: the stages see u = voltage - input_offset and h with the output offset
@@ -43,9 +42,7 @@ STAGES = {
 
 
 def extended(kind: str, base: HysteresisModel = BASE) -> ExtendedModel:
-    values = {f.name: getattr(base, f.name) for f in fields(HysteresisModel) if f.init}
-    values["name"] = f"ext_{kind}"
-    return ExtendedModel(**values, sample_period_s=T, **STAGES[kind])
+    return ExtendedModel(base.with_parameters(name=f"ext_{kind}"), StageSpec(sample_period_s=T, **STAGES[kind]))
 
 
 def fmus(kind: str) -> dict:
@@ -202,11 +199,11 @@ def test_stage_constants_are_visible_and_read_only():
         body = re.search(rf"#define {macro} \{{(.*?)\}}", config, re.S).group(1)
         return [float(x) for x in body.replace("\\", " ").split(",")]
 
-    stages = model.stage_parameters()
+    stages = model.stages.coefficients()
     assert numbers("MODEL_SECTIONS") == [x for s in stages["sections"] for x in s]
     assert numbers("MODEL_CREEP_ALPHA") == stages["creep_alpha"]
     assert numbers("MODEL_CREEP_BETA") == stages["creep_beta"]
-    assert f"#define MODEL_STAGE_STATE_SIZE {model.output_stages.state_size}\n" in config
+    assert f"#define MODEL_STAGE_STATE_SIZE {model.stages.state_size}\n" in config
     assert f"#define MODEL_SAMPLE_PERIOD {T!r}\n" in config
 
 
@@ -321,17 +318,16 @@ def test_inverse_fmu_of_an_extended_spec_compensates_the_hysteresis_part():
     fmu = RawFMU(fmus("creep")["inverse"])
     assert "output stages are not inverted" in fmu.description.description
     assert [v.name for v in fmu.description.modelVariables] == [v.name for v in variables(BASE, "inverse")]
-    reference = model.hysteresis_part().simulate(record(seed=6, n=1500))
+    reference = model.hysteresis.simulate(record(seed=6, n=1500))
     c = fmu.initialised()
     voltage, _ = fmu.run(c, reference, "displacement_ref", "voltage")
-    assert np.max(np.abs(voltage - InverseCompensator(model.hysteresis_part())(reference))) <= 1e-12 * (HI - LO)
-    assert np.max(np.abs(model.hysteresis_part().simulate(voltage) - reference)) <= 1e-9 * np.ptp(reference)
+    assert np.max(np.abs(voltage - InverseCompensator(model.hysteresis)(reference))) <= 1e-12 * (HI - LO)
+    assert np.max(np.abs(model.hysteresis.simulate(voltage) - reference)) <= 1e-9 * np.ptp(reference)
     fmu.fmi2FreeInstance(c)
 
 
 def test_extended_spec_without_stages_builds_like_its_hysteresis_part(tmp_path):
-    values = {f.name: getattr(BASE, f.name) for f in fields(HysteresisModel) if f.init}
-    plain = ExtendedModel(**values, sample_period_s=T)
+    plain = ExtendedModel(BASE, StageSpec(sample_period_s=T))
     messages = []
     paths = build_fmus(plain, tmp_path, ("linux64",), progress=messages.append)
     assert any("without output stages" in m for m in messages)
@@ -343,18 +339,18 @@ def test_extended_spec_without_stages_builds_like_its_hysteresis_part(tmp_path):
 # --------------------------------------------------------------- end to end
 
 def test_diagnose_then_build_fmu_end_to_end(tmp_path):
-    from pysim.data import MeasuredData, save_measured
-    from synthetic import make_case
+    from pysim.identification.data import MeasuredData, save_measured
+    from pysim.testing.synthetic import make_case
 
     case = make_case(3, effect="creep")
     data = save_measured(MeasuredData(case.time_s, case.voltage_V, case.displacement_um, "synthetic"),
                          tmp_path / "rig.csv")
     spec = tmp_path / "rig_extended.py"
-    run = subprocess.run([sys.executable, "-m", "pysim.cli", "diagnose", str(data), "--out", str(spec)],
+    run = subprocess.run([sys.executable, "-m", "pysim.cli.main", "diagnose", str(data), "--out", str(spec)],
                          capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     model = load_spec(spec)
-    assert isinstance(model, ExtendedModel) and model.has_stages
+    assert isinstance(model, ExtendedModel) and model.stages.present
     out = tmp_path / "fmus"
     run = subprocess.run([sys.executable, "-m", "build_fmu.cli", str(spec), "-o", str(out), "--platforms",
                           "linux64"], capture_output=True, text=True, timeout=600)
@@ -385,7 +381,8 @@ def test_diagnose_then_build_fmu_end_to_end(tmp_path):
 @pytest.mark.parametrize("compiler", ["gcc", "clang"])
 def test_extended_plant_sources_compile_without_warnings(tmp_path, compiler):
     from test_fmu_native import WARNINGS, _compile
-    from build_fmu.compile import fmi_include_dir
+
+    from pysim.fmu.compile import fmi_include_dir
 
     src = extracted(fmus("combination")["plant"]) / "sources"
     include = ["-I", str(src), "-I", str(fmi_include_dir())]

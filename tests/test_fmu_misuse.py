@@ -28,9 +28,9 @@ import subprocess
 
 import pytest
 from fmpy import read_model_description
-
-from fmu_testing import DEFAULT_MODEL
 from robustness import fmu_pair, misuse_driver, parse_cases, wine
+
+from pysim.testing.fmus import DEFAULT_MODEL
 
 MODEL = DEFAULT_MODEL
 PLATFORMS = ("linux64", "win64")

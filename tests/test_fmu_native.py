@@ -4,25 +4,32 @@ calling sequence on the Linux binary natively and on the Windows DLL under
 wine -- with bit-identical outputs."""
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-from build_fmu.compile import FLAGS, PLATFORMS, fmi_include_dir
-from build_fmu.generate import fmu_sources
-from build_fmu.build import tool_version
-from fmu_src import SOURCE_DIR
 import robustness
-from fmu_testing import (DEFAULT_MODEL, built_fmus, extracted, from_hex, paper_signal, piecewise_monotone,
-                         to_hex_lines, voltage_signal)
-from pysim.model import InverseCompensator
+
+from pysim.core.model import InverseCompensator
+from pysim.core.toolchain import SOURCE_DIR, zig_cc
+from pysim.fmu.build import tool_version
+from pysim.fmu.compile import FLAGS, PLATFORMS, fmi_include_dir
+from pysim.fmu.generate import fmu_sources
+from pysim.testing.fmus import (
+    DEFAULT_MODEL,
+    built_fmus,
+    extracted,
+    from_hex,
+    paper_signal,
+    piecewise_monotone,
+    to_hex_lines,
+    voltage_signal,
+)
 
 MODEL = DEFAULT_MODEL
 DRIVER = Path(__file__).resolve().parent / "c" / "fmu_driver.c"
 WARNINGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
-ZIG = [sys.executable, "-m", "ziglang", "cc"]
+ZIG = zig_cc()
 
 
 def _write_sources(folder: Path, kind: str) -> Path:

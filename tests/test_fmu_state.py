@@ -6,8 +6,16 @@ import ctypes
 import numpy as np
 import pytest
 
-from fmu_testing import (DEFAULT_MODEL, ERROR, OK, RawFMU, built_fmus, paper_signal, piecewise_monotone,
-                         voltage_signal)
+from pysim.testing.fmus import (
+    DEFAULT_MODEL,
+    ERROR,
+    OK,
+    RawFMU,
+    built_fmus,
+    paper_signal,
+    piecewise_monotone,
+    voltage_signal,
+)
 
 MODEL = DEFAULT_MODEL
 PORTS = {"plant": ("voltage", "displacement"), "inverse": ("displacement_ref", "voltage")}

@@ -14,8 +14,8 @@ import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
-from build_fmu import binaries, macho
-from fmu_testing import DEFAULT_MODEL, built_fmus, extracted
+from pysim.fmu import binaries, macho
+from pysim.testing.fmus import DEFAULT_MODEL, built_fmus, extracted
 
 MODEL = DEFAULT_MODEL
 SCHEMA = Path(fmpy.__file__).resolve().parent / "schema" / "fmi2" / "fmi2ModelDescription.xsd"

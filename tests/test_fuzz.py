@@ -22,10 +22,10 @@ import subprocess
 import time
 
 import pytest
-
-from build_fmu.compile import fmi_include_dir
-from fmu_testing import _temporary_folder
 from robustness import FP_FLAGS, FUZZ_DIR, compile_c, fmu_pair
+
+from pysim.fmu.compile import fmi_include_dir
+from pysim.testing.fmus import temporary_folder
 
 SECONDS = int(os.environ.get("PIEZO_FUZZ_SECONDS", "20"))
 TARGETS = ("calls", "state")
@@ -47,7 +47,7 @@ def _build(target: str, kind: str, folder) -> str:
 @pytest.fixture(scope="module")
 def fuzz_runs():
     """Build the four fuzzers, run them side by side, collect their reports."""
-    folder = _temporary_folder("fuzz-")
+    folder = temporary_folder("fuzz-")
     runs = {}
     for target in TARGETS:
         for kind in KINDS:

@@ -6,14 +6,14 @@ from pathlib import Path
 import control
 import numpy as np
 import pytest
-
 from conftest import random_piecewise_monotone
-from models.default_mpi import MODEL
-from models.flexure_stage import STAGE
-from pysim.errors import UserError
-from pysim.harness import CoSimulation, NominalDrive
-from pysim.model import InverseCompensator
-from pysim.stage import discretise
+from pysim.specs.default_mpi import MODEL
+from pysim.specs.flexure_stage import STAGE
+
+from pysim.core.model import InverseCompensator
+from pysim.cosim.errors import CoSimulationError
+from pysim.cosim.harness import CoSimulation, NominalDrive
+from pysim.cosim.stage import discretise
 
 pytest_plugins = ["fmu_fixtures"]  # the FMUs, built once
 
@@ -107,15 +107,15 @@ def test_close_frees_the_fmus_and_is_idempotent(default_fmus):
 
 def test_bad_use_is_refused_with_a_clear_message(tmp_path, default_fmus):
     plant, inverse = default_fmus
-    with pytest.raises(UserError, match="does not exist"):
+    with pytest.raises(CoSimulationError, match="does not exist"):
         CoSimulation(tmp_path / "missing.fmu")
     junk = tmp_path / "junk.fmu"
     junk.write_bytes(b"not a zip file")
-    with pytest.raises(UserError, match="junk.fmu: not a readable FMU"):
+    with pytest.raises(CoSimulationError, match="junk.fmu: not a readable FMU"):
         CoSimulation(junk)
-    with pytest.raises(UserError, match="so it is the plant FMU, not the inverse FMU"):
+    with pytest.raises(CoSimulationError, match="so it is the plant FMU, not the inverse FMU"):
         CoSimulation(plant, plant)
-    with pytest.raises(UserError, match="so it is the inverse FMU, not the plant FMU"):
+    with pytest.raises(CoSimulationError, match="so it is the inverse FMU, not the plant FMU"):
         CoSimulation(inverse)
     with CoSimulation(plant, stage=STAGE) as sim:
         with pytest.raises(ValueError, match="needs an inverse FMU"):
@@ -148,7 +148,7 @@ def test_a_failing_fmu_call_stops_the_run_with_the_fmus_own_message(default_fmus
 def test_bad_stage_settings_are_refused_before_any_fmu_is_loaded(default_fmus, monkeypatch):
     plant, _ = default_fmus
     opened = []
-    monkeypatch.setattr("pysim.harness.FMUUnit", lambda *args: opened.append(args))
+    monkeypatch.setattr("pysim.cosim.harness.FMUUnit", lambda *args: opened.append(args))
     with pytest.raises(ValueError, match="method"):
         CoSimulation(plant, stage=STAGE, stage_method="euler")
     with pytest.raises(ValueError, match="Nyquist"):

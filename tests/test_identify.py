@@ -1,11 +1,11 @@
 """Identification: exact recovery, noise level, invertibility constraints, global optimality."""
 import numpy as np
 import pytest
+from conftest import paper_model
 from scipy.optimize import minimize
 
-from conftest import paper_model
-from pysim.identify import IdentificationError, identify, regressors
-from pysim.model import HysteresisModel
+from pysim.core.model import HysteresisModel
+from pysim.identification.identify import IdentificationError, identify, regressors
 
 
 def exciting_input(n=40001, lo=0.0, hi=150.0):
@@ -21,7 +21,7 @@ def scaled_paper_model(a1=-0.8, operator="osp"):
     r = np.array(base.thresholds_V) * 150.0
     b = np.array(base.weights_um_per_V) * 20.0 / 150.0
     a2 = 2.42 * 20 / 150 + b[0]
-    b[0] = 0.0   # the r = 0 operator is the same column as a2 (see pysim.identify)
+    b[0] = 0.0   # the r = 0 operator is the same column as a2 (see pysim.identification.identify)
     return HysteresisModel(a1 * 20 / 150**3, a2, tuple(r), tuple(b), operator=operator,
                            voltage_range_V=(0.0, 150.0), name="truth")
 
@@ -91,7 +91,7 @@ def test_constraints_make_a_non_invertible_optimum_invertible_and_stay_optimal()
     A, cols = regressors(v, result.model.thresholds, "osp", 0.0, True)
     keep = [0, 1] + [c for c in cols if c >= 0] + [A.shape[1] - 1]
     A = A[:, keep]
-    from pysim.identify import _invertibility_rows
+    from pysim.identification.identify import _invertibility_rows
     G, h = _invertibility_rows(result.model.with_parameters(a1=0.0), A.shape[1], True, cols, margin)
     scale = np.linalg.norm(A, axis=0)
     As, Gs = A / scale, G / scale

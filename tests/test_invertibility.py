@@ -1,10 +1,10 @@
 """The invertibility check against slopes measured on simulated branches."""
 import numpy as np
 import pytest
-
 from conftest import paper_model, random_piecewise_monotone
-from pysim.invertibility import check_invertibility
-from pysim.model import HysteresisModel
+
+from pysim.core.invertibility import check_invertibility
+from pysim.core.model import HysteresisModel
 
 
 def measured_slopes(model, v):

@@ -22,12 +22,24 @@ import sys
 
 import numpy as np
 import pytest
+from robustness import (
+    C_DIR,
+    SANITIZE,
+    TESTS,
+    WARNINGS,
+    asan_runtime,
+    compile_c,
+    fmu_pair,
+    misuse_driver,
+    parse_cases,
+    sanitized_fmu,
+    sanitized_library,
+    sanitizer_findings,
+)
 
-from build_fmu.compile import fmi_include_dir
-from fmu_testing import DEFAULT_MODEL, from_hex, paper_signal, piecewise_monotone, to_hex_lines, voltage_signal
-from pysim.model import InverseCompensator
-from robustness import (C_DIR, SANITIZE, TESTS, WARNINGS, asan_runtime, compile_c, fmu_pair, misuse_driver,
-                        parse_cases, sanitized_fmu, sanitized_library, sanitizer_findings)
+from pysim.core.model import InverseCompensator
+from pysim.fmu.compile import fmi_include_dir
+from pysim.testing.fmus import DEFAULT_MODEL, from_hex, paper_signal, piecewise_monotone, to_hex_lines, voltage_signal
 
 MODEL = DEFAULT_MODEL
 CYCLES = 1000

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from pysim.metrics import error_measures
+from pysim.core.metrics import error_measures
 
 
 def test_sine_error_on_a_ramp_reference():

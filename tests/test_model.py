@@ -1,10 +1,16 @@
 """Forward model, operators and inverses against analytic truths and the paper's properties."""
 import numpy as np
 import pytest
-
 from conftest import paper_input, paper_model, random_piecewise_monotone
-from pysim.model import (HysteresisModel, InverseCompensator, NotInvertibleError, analytic_inverse,
-                         eq13_thresholds, invert)
+
+from pysim.core.model import (
+    HysteresisModel,
+    InverseCompensator,
+    NotInvertibleError,
+    analytic_inverse,
+    eq13_thresholds,
+    invert,
+)
 
 
 def oracle_operator(u, r, w0, kind):
@@ -157,7 +163,7 @@ def test_exact_inverse_round_trip_mpi(kind):
 
 
 def test_exact_inverse_with_offsets_and_physical_units():
-    from models.default_mpi import MODEL
+    from pysim.specs.default_mpi import MODEL
 
     model = MODEL.with_parameters(input_offset_V=-20.0, output_offset_um=-1.7,
                                   voltage_range_V=(-20.0, 130.0))
@@ -214,7 +220,7 @@ def test_invalid_models_are_refused_with_a_reason():
 
 
 def test_default_model_is_the_scaled_paper_example():
-    from models.default_mpi import MODEL
+    from pysim.specs.default_mpi import MODEL
 
     norm = paper_model()
     v = paper_input(5001)
@@ -228,7 +234,7 @@ def test_record_loop_and_single_sample_call_give_the_same_bits(rng, n):
     """The FMUs call hyst_output (blocked), Python records hyst_simulate (in place): same bits."""
     import ctypes
 
-    from pysim import _kernel
+    from pysim.core import kernel as _kernel
 
     lib = _kernel.library()
     lib.hyst_output.argtypes = [ctypes.POINTER(_kernel.HystModel), ctypes.c_double,

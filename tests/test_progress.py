@@ -1,7 +1,7 @@
 """The progress bar: drawn on a terminal only, complete at the end."""
 import io
 
-from pysim.progress import Progress
+from pysim.cli.progress import Progress
 
 
 class Terminal(io.StringIO):

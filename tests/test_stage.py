@@ -4,10 +4,10 @@ import math
 import control
 import numpy as np
 import pytest
+from pysim.specs.flexure_stage import DAMPING_RATIO, RESONANCE_HZ, STAGE
 
-from models.flexure_stage import DAMPING_RATIO, RESONANCE_HZ, STAGE
-from pysim.errors import UserError
-from pysim.stage import DiscreteStage, discretise, load_stage, slowest_time_constant_s
+from pysim.cosim.errors import CoSimulationError
+from pysim.cosim.stage import DiscreteStage, discretise, load_stage, slowest_time_constant_s
 
 W1 = 2 * math.pi * RESONANCE_HZ
 ZETA = DAMPING_RATIO
@@ -103,7 +103,7 @@ def test_bad_stages_are_refused():
 
 def test_load_stage(tmp_path):
     assert load_stage("flexure_stage") is STAGE
-    assert load_stage("models.flexure_stage") is STAGE
+    assert load_stage("pysim.specs.flexure_stage") is STAGE
     good = tmp_path / "my_stage.py"
     good.write_text("import control\nSTAGE = control.tf([1.0], [1e-3, 1.0])\n")
     assert abs(load_stage(str(good))(0)) == pytest.approx(1.0)
@@ -111,11 +111,11 @@ def test_load_stage(tmp_path):
                           ("import control\nSTAGE = control.ss(-1, [[1, 1]], 1, [[0, 0]])\n", "one input")):
         bad = tmp_path / "bad_stage.py"
         bad.write_text(text)
-        with pytest.raises(UserError, match=message):
+        with pytest.raises(CoSimulationError, match=message):
             load_stage(str(bad))
-    with pytest.raises(UserError, match="does not exist"):
+    with pytest.raises(CoSimulationError, match="does not exist"):
         load_stage(str(tmp_path / "missing.py"))
-    with pytest.raises(UserError, match="no stage file or module"):
+    with pytest.raises(CoSimulationError, match="no stage file or module"):
         load_stage("no_such_stage_module")
 
 

@@ -5,13 +5,13 @@ import math
 import control
 import numpy as np
 import pytest
+from pysim.specs.default_mpi import MODEL
+from pysim.specs.flexure_stage import STAGE
 
-from models.default_mpi import MODEL
-from models.flexure_stage import STAGE
-from pysim.harness import CoSimulation, NominalDrive
-from pysim.metrics import error_measures
-from pysim.stage import DiscreteStage
-from pysim.tracking import PAPER_TABLE_III, TABLE_III_AMPLITUDES_UM, format_table, table_iii_reference, track
+from pysim.core.metrics import error_measures
+from pysim.cosim.harness import CoSimulation, NominalDrive
+from pysim.cosim.stage import DiscreteStage
+from pysim.cosim.tracking import PAPER_TABLE_III, TABLE_III_AMPLITUDES_UM, format_table, table_iii_reference, track
 
 pytest_plugins = ["fmu_fixtures"]  # the FMUs, built once
 

@@ -7,8 +7,8 @@ Usage::
 
 ``ORIGINALS`` is the folder holding one subfolder per data set with the files
 as published (default: ``../shared/data`` beside the repository).  The
-originals are read with :func:`pysim.data.load_measured` and its layout
-options and written with :func:`pysim.data.save_measured`, so values keep every
+originals are read with :func:`pysim.identification.data.load_measured` and its layout
+options and written with :func:`pysim.identification.data.save_measured`, so values keep every
 digit and the conversion exercises the project's own loader.  Each data set's
 LICENSE is copied beside the converted file; SOURCE.md there says where it
 came from.
@@ -20,7 +20,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from pysim.data import SHIPPED_DATASETS, load_measured, save_measured
+from pysim.identification.data import SHIPPED_DATASETS, load_measured, save_measured
 
 HERE = Path(__file__).resolve().parent
 

@@ -1,0 +1,132 @@
+"""``pysim identify DATA.csv``: fit MPI (and CPI for comparison), write a spec."""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+from pysim.cli.errors import UserError
+
+
+def add_data_options(parser) -> None:
+    """Options that describe a data file's layout (shared by the data commands)."""
+    group = parser.add_argument_group("data layout (default: CSV with header time_s,voltage_V,displacement_um)")
+    group.add_argument("--time-column", help="name or 1-based number of the time column (s)")
+    group.add_argument("--voltage-column", help="name or 1-based number of the voltage column (V)")
+    group.add_argument("--displacement-column", help="name or 1-based number of the displacement column (µm)")
+    group.add_argument("--no-header", action="store_true", help="the file has no header row")
+    group.add_argument("--delimiter", help="field separator (default: detected)")
+    group.add_argument("--sample-rate", type=float, metavar="HZ",
+                       help="sample rate when the file has no time column")
+
+
+def load_data(args):
+    """Load ``args.data`` with the layout options of :func:`add_data_options`."""
+    from pysim.identification.data import load_measured
+
+    def column(value):
+        if value is None:
+            return None
+        return int(value) if re.fullmatch(r"\d+", value) else value
+
+    return load_measured(
+        args.data, time_column=column(args.time_column), voltage_column=column(args.voltage_column),
+        displacement_column=column(args.displacement_column), header=not args.no_header,
+        delimiter=args.delimiter, sample_rate_hz=args.sample_rate)
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "identify", help="fit an MPI/CPI hysteresis model to measured data and write a spec",
+        description="Fit the modified (MPI) or classical (CPI) Prandtl-Ishlinskii model with fixed "
+                    "thresholds (eq. 13) by exact constrained least squares that keeps the model "
+                    "invertible, print parameters and errors, and write a model spec for build-fmu.")
+    parser.add_argument("data", help="measured data file")
+    parser.add_argument("--model", choices=("mpi", "cpi"), default="mpi", help="model to write (default mpi)")
+    parser.add_argument("--operators", type=int, default=10, metavar="N", help="number of operators (default 10)")
+    parser.add_argument("--operator", choices=("osp", "play"), default="osp",
+                        help="one-sided play (paper, default) or classical play operators")
+    parser.add_argument("--warmup", default="auto",
+                        help="samples left out at the start, or 'auto' (until the input has visited both ends)")
+    parser.add_argument("--out", metavar="SPEC", help="write the model spec (a Python file) here")
+    parser.add_argument("--name", help="model name (a C identifier; default from the output file name)")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    add_data_options(parser)
+    parser.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from pysim.core.spec import SpecError, model_name_from_path, write_spec
+    from pysim.identification.identify import IdentificationError, identify
+
+    if args.operators < 1:
+        raise UserError(f"--operators must be at least 1, got {args.operators}")
+    if args.warmup != "auto" and not re.fullmatch(r"\d+", str(args.warmup)):
+        raise UserError(f"--warmup must be 'auto' or a whole number of samples, got {args.warmup!r}")
+    name = args.name or model_name_from_path(args.out, default=f"identified_{args.model}")
+    if not name.isidentifier():
+        raise UserError(f"model name {name!r} is not a C identifier (use --name)")
+    if args.out:
+        out_dir = Path(args.out).parent
+        if not out_dir.is_dir():
+            raise UserError(f"{args.out}: folder {out_dir} does not exist")
+    data = load_data(args)
+    warmup = "auto" if args.warmup == "auto" else int(args.warmup)
+    results = {}
+    for kind in ("mpi", "cpi"):
+        try:
+            results[kind] = identify(
+                data.voltage_V, data.displacement_um, n_operators=args.operators, model=kind,
+                operator=args.operator, warmup=warmup, name=name,
+                description=f"{kind.upper()} model identified from {Path(data.source).name} by pysim identify")
+        except IdentificationError as exc:
+            raise UserError(f"{data.source}: {exc}") from exc
+    chosen = results[args.model]
+    if args.out:
+        try:
+            write_spec(chosen.model, args.out,
+                       header=f"{args.model.upper()} model ({args.operators} {args.operator} operators) "
+                              f"identified from {Path(data.source).name} by pysim identify.\n\n"
+                              f"Fit errors (% of measured range, after a warm-up of "
+                              f"{chosen.warmup_samples} samples): max {chosen.errors['max_error_pct']:.3f}, "
+                              f"RMS {chosen.errors['rms_error_pct']:.3f}, mean {chosen.errors['mean_error_pct']:.3f}.")
+        except SpecError as exc:
+            raise UserError(str(exc)) from exc
+    if args.json:
+        print(json.dumps({
+            "model": args.model,
+            "parameters": chosen.parameters(),
+            **chosen.errors,
+            "warmup_samples": chosen.warmup_samples,
+            "constraints_active": chosen.constraints_active,
+            "comparison": {kind: res.errors for kind, res in results.items()},
+            "spec": args.out,
+        }, indent=2))
+    else:
+        print(format_table(chosen, results, data.source, args.out))
+    return 0
+
+
+def format_table(chosen, results, source, out) -> str:
+    m = chosen.model
+    lines = [f"{m.kind.upper()} model of {source}: {m.n_operators} {m.operator} operators, "
+             f"fit on samples {chosen.fit_slice.start}..{chosen.fit_slice.stop - 1} "
+             f"(warm-up {chosen.warmup_samples})",
+             "",
+             f"  a1            {m.a1: .6e} µm/V³",
+             f"  a2            {m.a2: .6e} µm/V",
+             f"  input offset  {m.input_offset_V: .6g} V",
+             f"  output offset {m.output_offset_um: .6g} µm",
+             "   i    r_i (V)        b_i (µm/V)"]
+    for i, (r, b) in enumerate(zip(m.thresholds_V, m.weights_um_per_V), start=1):
+        lines.append(f"  {i:2d}  {r:12.6g}  {b: .6e}")
+    inv = m.check_invertibility()
+    lines += ["", f"  invertibility: {inv.message}", "",
+              "  model   max err %   RMS err %   mean err %"]
+    for kind, res in results.items():
+        e = res.errors
+        lines.append(f"  {kind.upper():5s}  {e['max_error_pct']:9.3f}  {e['rms_error_pct']:10.3f}  "
+                     f"{e['mean_error_pct']:11.3f}")
+    if out:
+        lines += ["", f"  spec written to {out}"]
+    return "\n".join(lines)

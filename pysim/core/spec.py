@@ -1,0 +1,146 @@
+"""Model specs: Python files that define ``MODEL``.
+
+A spec is a Python module (in ``models/`` or anywhere) whose module-level
+``MODEL`` is a :class:`pysim.core.model.HysteresisModel` (or a subclass, such as an
+extended model).  ``pysim identify`` writes them, ``build-fmu`` reads them.
+"""
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import importlib.util
+import re
+import sys
+from pathlib import Path
+
+from pysim.core.errors import SpecError
+from pysim.core.extended import ExtendedModel
+from pysim.core.fileio import atomic_write_text
+from pysim.core.model import HysteresisModel
+
+
+def load_spec(source) -> HysteresisModel:
+    """Load the ``MODEL`` of a spec.
+
+    Parameters
+    ----------
+    source : str, Path or HysteresisModel
+        A path to a ``.py`` file, a module name (``pysim.specs.default_mpi``), a bare
+        name of a shipped spec (``models/`` in the repository, ``pysim.specs`` installed) (``default_mpi``), or a model (returned).
+    """
+    if isinstance(source, (HysteresisModel, ExtendedModel)):
+        return source
+    text = str(source)
+    path = Path(text)
+    if text.endswith(".py") or path.exists():
+        if not path.exists():
+            raise SpecError(f"{text}: spec file does not exist")
+        if path.is_dir():
+            raise SpecError(f"{text}: is a directory, not a spec file")
+        spec = importlib.util.spec_from_file_location(f"_piezo_spec_{abs(hash(str(path.resolve())))}", path)
+        module = importlib.util.module_from_spec(spec)
+        try:
+            spec.loader.exec_module(module)
+        except Exception as exc:  # the spec's own error, reported with its file
+            raise SpecError(f"{text}: {type(exc).__name__}: {exc}") from exc
+    else:
+        name = text if "." in text else f"pysim.specs.{text}"
+        try:
+            module = importlib.import_module(name)
+        except ImportError as exc:
+            raise SpecError(f"{text}: no spec file or module of that name ({exc})") from exc
+        except Exception as exc:
+            raise SpecError(f"{text}: {type(exc).__name__}: {exc}") from exc
+    model = getattr(module, "MODEL", None)
+    if not isinstance(model, (HysteresisModel, ExtendedModel)):
+        raise SpecError(f"{text}: defines no MODEL of type HysteresisModel or ExtendedModel")
+    return model
+
+
+def model_name_from_path(path, default: str = "model") -> str:
+    """A model name (a C identifier: it names the FMU's C symbols and files)
+    derived from a spec file name: ``x-y.py`` -> ``x_y``, ``2024 run.py`` ->
+    ``m_2024_run``.
+
+    Examples
+    --------
+    >>> model_name_from_path("/tmp/x-y.py")
+    'x_y'
+    >>> model_name_from_path("2024 run.py")
+    'm_2024_run'
+    """
+    stem = Path(str(path)).stem if path else ""
+    name = re.sub(r"[^0-9A-Za-z_]+", "_", stem).strip("_")
+    if not name:
+        return default
+    return f"m_{name}" if name[0].isdigit() else name
+
+
+def _literal(value, indent: str = "    ") -> str:
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return _constructor(value, indent)
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, (tuple, list)):
+        inner = ", ".join(_literal(v, indent) for v in value)
+        return f"({inner},)" if len(value) == 1 else f"({inner})"
+    return repr(value)
+
+
+def _constructor(value, indent: str) -> str:
+    """``Class(\n    field=value,\n)`` over the init fields, nested parts indented."""
+    inner = indent + "    "
+    lines = [f"{type(value).__name__}("]
+    for f in dataclasses.fields(value):
+        if f.init:
+            lines.append(f"{indent}{f.name}={_literal(getattr(value, f.name), inner)},")
+    lines.append(f"{indent[:-4]})")
+    return "\n".join(lines)
+
+
+def _classes(value) -> dict:
+    """``{module: {class names}}`` of a model and of the parts it is made of."""
+    found = {}
+    stack = [value]
+    while stack:
+        item = stack.pop()
+        if dataclasses.is_dataclass(item) and not isinstance(item, type):
+            found.setdefault(type(item).__module__, set()).add(type(item).__name__)
+            stack += [getattr(item, f.name) for f in dataclasses.fields(item) if f.init]
+    return found
+
+
+def spec_source(model, header: str = "") -> str:
+    """Python source of a spec file defining ``model`` (floats written exactly;
+    a composed model is written with its parts).
+
+    Examples
+    --------
+    >>> from pysim.core.extended import ExtendedModel
+from pysim.core.model import HysteresisModel
+    >>> print(spec_source(HysteresisModel(0.0, 0.5, (0.0,), (0.1,)), "a line plant"))  # doctest: +ELLIPSIS
+    \"\"\"a line plant\"\"\"
+    from pysim.core.extended import ExtendedModel
+from pysim.core.model import HysteresisModel
+    <BLANKLINE>
+    MODEL = HysteresisModel(
+        a1=0.0,
+        a2=0.5,
+    ...
+    """
+    imports = [f"from {module} import {', '.join(sorted(names))}" for module, names in sorted(_classes(model).items())]
+    lines = [f'"""{header or model.description or model.name}"""', *imports, "",
+             f"MODEL = {_constructor(model, '    ')}"]
+    return "\n".join(lines) + "\n"
+
+
+def write_spec(model: HysteresisModel, path, header: str = "") -> Path:
+    """Write ``model`` as a spec file (atomically: all or nothing)."""
+    path = Path(path)
+    source = spec_source(model, header)
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise SpecError(f"{path}: folder {directory} does not exist")
+    atomic_write_text(path, source)
+    sys.modules.pop(path.stem, None)
+    return path

@@ -1,0 +1,113 @@
+"""Tracking errors for the paper's Table III references, with and without compensation.
+
+Reference (Gu, Zhu, Su 2014, Table III): ``x_d(t) = A sin(2π t) + 37.5 µm``,
+A = 7.5, 15, 22.5, 30 µm.  Errors are eq. 14 (e_rms) and eq. 15 (e_m) in %
+of the reference's range, e_m taken on |x_d − x| (:func:`pysim.core.metrics.error_measures`),
+on the stage's displacement over the last period: the first period holds
+the start from the demagnetised state (and from rest).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pysim.core.metrics import error_measures
+from pysim.cosim.errors import CoSimulationError
+from pysim.cosim.harness import CoSimResult, CoSimulation, NominalDrive
+
+TABLE_III_AMPLITUDES_UM = (7.5, 15.0, 22.5, 30.0)
+TABLE_III_OFFSET_UM = 37.5
+TABLE_III_FREQUENCY_HZ = 1.0
+# Paper, Table III (compensated, measured on the rig): e_m and e_rms in %.
+PAPER_TABLE_III = {
+    7.5: {"max_error_pct": 2.93, "rms_error_pct": 1.03},
+    15.0: {"max_error_pct": 2.17, "rms_error_pct": 1.06},
+    22.5: {"max_error_pct": 2.59, "rms_error_pct": 1.08},
+    30.0: {"max_error_pct": 2.61, "rms_error_pct": 1.11},
+}
+
+
+def table_iii_reference(amplitude_um: float, step_s: float = 1e-4, periods: int = 2,
+                        offset_um: float = TABLE_III_OFFSET_UM,
+                        frequency_hz: float = TABLE_III_FREQUENCY_HZ):
+    """Time (s) and reference ``offset + A sin(2π f t)`` (µm) over whole periods."""
+    per_period = round(1.0 / (frequency_hz * step_s))
+    if per_period < 8 or not math.isclose(per_period * step_s * frequency_hz, 1.0, rel_tol=1e-9):
+        raise CoSimulationError(f"the step ({step_s} s) must divide the period ({1 / frequency_hz} s) "
+                         "into at least 8 samples")
+    k = np.arange(per_period * periods)
+    return k * step_s, offset_um + amplitude_um * np.sin(2.0 * math.pi * (k % per_period) / per_period)
+
+
+def track(sim: CoSimulation, drive: NominalDrive, amplitudes_um=TABLE_III_AMPLITUDES_UM,
+          step_s: float = 1e-4, periods: int = 2, offset_um: float = TABLE_III_OFFSET_UM,
+          frequency_hz: float = TABLE_III_FREQUENCY_HZ, progress=None):
+    """Run the Table III references through both paths.
+
+    Parameters
+    ----------
+    sim : CoSimulation
+        Plant and inverse FMU, stage.  Reset before every run; the stage starts
+        in equilibrium with the first displacement.
+    drive : NominalDrive
+        Voltage for the uncompensated path.
+    periods : int
+        Periods simulated (≥ 2); errors are taken over the last one.
+
+    Returns
+    -------
+    rows : list of dict
+        Per amplitude: ``amplitude_um``, ``uncompensated`` and ``compensated``
+        (each the :func:`pysim.core.metrics.error_measures` dict) and ``paper``
+        (Table III where the amplitude is one of the paper's, else None).
+    runs : dict
+        ``(amplitude, path) -> CoSimResult`` for plotting.
+    """
+    if periods < 2:
+        raise CoSimulationError("need at least two periods: the first is the start-up")
+    saved_start = sim.stage_start
+    sim.stage_start = "steady"
+    rows, runs = [], {}
+    try:
+        for amplitude in amplitudes_um:
+            _, reference = table_iii_reference(amplitude, step_s, periods, offset_um, frequency_hz)
+            last = slice(reference.size - reference.size // periods, None)
+            row = {"amplitude_um": float(amplitude)}
+            for path in ("uncompensated", "compensated"):
+                sim.reset(step_s=step_s)
+                result = (sim.run(reference) if path == "compensated"
+                          else _with_reference(sim.run(voltage_V=drive(reference)), reference))
+                row[path] = error_measures(reference[last], result.displacement_stage_um[last])
+                runs[(float(amplitude), path)] = result
+                if progress is not None:
+                    progress.update()
+            row["paper"] = PAPER_TABLE_III.get(float(amplitude))
+            rows.append(row)
+    finally:
+        sim.stage_start = saved_start
+    return rows, runs
+
+
+def _with_reference(result: CoSimResult, reference) -> CoSimResult:
+    result.reference_um = np.asarray(reference, dtype=float)
+    return result
+
+
+def format_table(rows) -> str:
+    """Plain-text table of e_m and e_rms (%) next to the paper's."""
+    head = (f"{'A (µm)':>7}  {'e_m uncomp':>10}  {'e_m comp':>9}  {'e_m paper':>9}  "
+            f"{'e_rms uncomp':>12}  {'e_rms comp':>10}  {'e_rms paper':>11}")
+    lines = [head, "-" * len(head)]
+    for row in rows:
+        paper = row.get("paper") or {}
+        lines.append(
+            f"{row['amplitude_um']:7.1f}  {row['uncompensated']['max_error_pct']:9.3f}%  "
+            f"{row['compensated']['max_error_pct']:8.4f}%  {_pct(paper.get('max_error_pct')):>9}  "
+            f"{row['uncompensated']['rms_error_pct']:11.3f}%  {row['compensated']['rms_error_pct']:9.4f}%  "
+            f"{_pct(paper.get('rms_error_pct')):>11}")
+    return "\n".join(lines)
+
+
+def _pct(x):
+    return "-" if x is None else f"{x:.2f}%"

@@ -1,0 +1,8 @@
+"""Diagnosis: what an identified model gets wrong on a record, which effect
+causes it, the extended model and its gain.  Built on :mod:`pysim.core` and
+:mod:`pysim.identification`.
+"""
+from pysim.diagnosis.diagnose import CAUSES, Diagnosis, diagnose
+from pysim.diagnosis.errors import DiagnosisError
+
+__all__ = ["diagnose", "Diagnosis", "CAUSES", "DiagnosisError"]

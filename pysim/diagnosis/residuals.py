@@ -1,0 +1,252 @@
+"""Statistics of a model's residual (measured − simulated displacement).
+
+Each function looks at the residual from one angle that separates the causes
+a rate-independent model misses (see :mod:`pysim.diagnosis.diagnose`):
+
+- against the input rate dv/dt: a delay or a lag makes the residual follow the
+  rate (``−delay × slope``);
+- against the time since the last input change (a reversal or a step): creep
+  keeps moving for seconds after a change, dynamics ring and settle within a
+  few time constants, a delay only lasts a few samples;
+- lagged cross-correlation with the input and with dv/dt: where the residual
+  is linked to the input and with what lag; drift is not linked at all;
+- the spectrum: drift lives below the input's frequencies, ringing shows a
+  peak above them, noise is flat.
+
+All functions take plain arrays (µm, V, s) and return plain numbers or arrays.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.signal
+
+_MAD_TO_SIGMA = 1.482602218505602  # 1 / Φ⁻¹(3/4): MAD of a normal sample → σ
+
+
+def noise_sigma(residual_um, quantum_um: float = 0.0) -> float:
+    """Standard deviation (µm) of the white part of a residual.
+
+    The first difference of a smooth error is small while that of white noise
+    has variance 2σ²; the median absolute deviation of the differences ignores
+    the few large differences at steps.  A quantised sensor can give a median
+    of zero: the estimate is then at least ``quantum_um / sqrt(12)``.
+    """
+    d = np.diff(np.asarray(residual_um, dtype=float))
+    if d.size == 0:
+        return 0.0
+    mad = float(np.median(np.abs(d - np.median(d))))
+    return max(_MAD_TO_SIGMA * mad / np.sqrt(2.0), quantum_um / np.sqrt(12.0))
+
+
+def quantum(values) -> float:
+    """Smallest non-zero step between samples (the sensor's resolution, if any)."""
+    d = np.abs(np.diff(np.asarray(values, dtype=float)))
+    d = d[d > 0]
+    return float(d.min()) if d.size else 0.0
+
+
+def input_changes(voltage_V, tolerance_V: float):
+    """Samples where the input changes direction or jumps, and the direction after.
+
+    A reversal is placed at the extreme sample once the input has moved back
+    from it by more than ``tolerance_V`` (so noise on a hold is no reversal); a
+    jump is a one-sample step larger than ten times ``tolerance_V`` and than ten
+    times the median step (a step, not a fast ramp).
+
+    Returns
+    -------
+    index : ndarray of int
+        Sample of each change, ascending.
+    direction : ndarray of float
+        +1 if the input rises after the change, −1 if it falls.
+    """
+    v = np.asarray(voltage_V, dtype=float)
+    events = {}
+    dv = np.diff(v)
+    jump = 10.0 * max(tolerance_V, float(np.median(np.abs(dv))) if dv.size else 0.0)
+    for k in np.flatnonzero(np.abs(dv) > jump):
+        events[int(k) + 1] = float(np.sign(dv[k]))
+    top = bottom = 0          # running maximum / minimum since the last reversal
+    direction = 0             # +1 rising, -1 falling, 0 not yet known
+    for k in range(1, v.size):
+        x = v[k]
+        # the last sample at an extreme: after a hold the change is where the input leaves it
+        if direction >= 0 and x >= v[top]:
+            top = k
+        if direction <= 0 and x <= v[bottom]:
+            bottom = k
+        if direction >= 0 and x < v[top] - tolerance_V:
+            if direction > 0:
+                events.setdefault(top, -1.0)
+            direction, bottom = -1, k
+        elif direction <= 0 and x > v[bottom] + tolerance_V:
+            if direction < 0:
+                events.setdefault(bottom, 1.0)
+            direction, top = 1, k
+    index = np.array(sorted(events), dtype=int)
+    return index, np.array([events[k] for k in index])
+
+
+def time_since_change(voltage_V, sample_period_s: float, tolerance_V: float):
+    """Time (s) since the last input change and its direction, for every sample.
+
+    Samples before the first change get NaN and direction 0.
+    """
+    index, direction = input_changes(voltage_V, tolerance_V)
+    n = len(voltage_V)
+    last = np.full(n, -1)
+    sign = np.zeros(n)
+    if index.size:
+        slot = np.searchsorted(index, np.arange(n), side="right") - 1
+        valid = slot >= 0
+        last[valid] = index[slot[valid]]
+        sign[valid] = direction[slot[valid]]
+    elapsed = np.where(last >= 0, (np.arange(n) - last) * sample_period_s, np.nan)
+    return elapsed, sign
+
+
+def binned_mean(x, values, edges):
+    """Mean of ``values`` in each bin of ``x`` (NaN for an empty bin) and the counts."""
+    x = np.asarray(x, dtype=float)
+    values = np.asarray(values, dtype=float)
+    ok = np.isfinite(x) & np.isfinite(values)
+    slot = np.digitize(x[ok], edges) - 1
+    inside = (slot >= 0) & (slot < len(edges) - 1)
+    counts = np.bincount(slot[inside], minlength=len(edges) - 1)
+    sums = np.bincount(slot[inside], weights=values[ok][inside], minlength=len(edges) - 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan), counts
+
+
+def correlation(a, b) -> float:
+    """Pearson correlation (0 when either is constant)."""
+    a = np.asarray(a, dtype=float) - np.mean(a)
+    b = np.asarray(b, dtype=float) - np.mean(b)
+    denominator = np.sqrt(np.dot(a, a) * np.dot(b, b))
+    return float(np.dot(a, b) / denominator) if denominator > 0 else 0.0
+
+
+def cross_correlation(residual, signal, max_lag: int):
+    """Normalised cross-correlation ρ(k) of ``residual[n]`` with ``signal[n − k]``
+    for k = −max_lag … max_lag (positive k: the residual follows the signal).
+
+    Returns ``(lags, rho)``.
+    """
+    r = np.asarray(residual, dtype=float) - np.mean(residual)
+    s = np.asarray(signal, dtype=float) - np.mean(signal)
+    n = r.size
+    max_lag = int(min(max_lag, n - 1))
+    full = scipy.signal.correlate(r, s, mode="full", method="fft")
+    centre = n - 1
+    lags = np.arange(-max_lag, max_lag + 1)
+    denominator = np.sqrt(np.dot(r, r) * np.dot(s, s))
+    rho = full[centre + lags] / denominator if denominator > 0 else np.zeros(lags.size)
+    return lags, rho
+
+
+def spectrum(residual, sample_rate_hz: float, segments: int = 4):
+    """Welch power spectral density (µm²/Hz) of a residual: ``(frequency_hz, psd)``.
+
+    About ``segments`` Hann-windowed segments with half overlap: a coarse
+    frequency grid (sample rate × segments / length) but a steadier estimate.
+    """
+    r = np.asarray(residual, dtype=float)
+    nperseg = int(max(min(r.size, 16), 2 * r.size // (segments + 1)))
+    return scipy.signal.welch(r - np.mean(r), fs=sample_rate_hz, nperseg=nperseg)
+
+
+def dominant_frequency(signal, sample_rate_hz: float) -> float:
+    """Frequency (Hz) of the largest peak of the Hann-windowed periodogram of
+    ``signal`` (its mean removed), refined by parabolic interpolation."""
+    x = np.asarray(signal, dtype=float)
+    if x.size < 8:
+        return 0.0
+    power = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(x.size))) ** 2
+    k = 1 + int(np.argmax(power[1:]))
+    shift = 0.0
+    if 1 < k < power.size - 1:
+        a, b, c = np.log(power[k - 1:k + 2] + 1e-300)
+        shift = 0.5 * (a - c) / (a - 2 * b + c) if a - 2 * b + c != 0 else 0.0
+    return float((k + shift) * sample_rate_hz / x.size)
+
+
+def residual_statistics(residual_um, voltage_V, sample_rate_hz: float, noise_um: float) -> dict:
+    """The statistics of :mod:`pysim.diagnosis.diagnose`'s evidence, for one stretch of record.
+
+    Parameters
+    ----------
+    residual_um : array_like
+        Measured minus simulated displacement, µm.
+    voltage_V : array_like
+        Input over the same samples, V.
+    sample_rate_hz : float
+    noise_um : float
+        Noise level (σ, µm) the residual is compared with.
+
+    Returns
+    -------
+    dict of plain numbers:
+
+    ``rms_um``, ``rms_over_noise``
+        Size of the residual, absolutely and in units of the noise.
+    ``rate_correlation``
+        Correlation of the residual with dv/dt (a delay or lag gives ≈ −1).
+    ``input_xcorr_peak``, ``input_xcorr_lag_s``; ``rate_xcorr_peak``, ``rate_xcorr_lag_s``
+        Largest |ρ| of the lagged cross-correlations and its lag.
+    ``creep_log_correlation``
+        Correlation of the direction-signed residual with ln(time since the
+        last change) on samples more than 10 samples after a change (creep
+        makes it grow with log time).
+    ``settling_fraction``
+        Share of the residual's mean square within 20 samples after a change
+        (dynamics and delays concentrate there).
+    ``low_frequency_fraction``
+        Share of the residual power below a fifth of the input's dominant
+        frequency (drift lives there).
+    ``peak_frequency_hz``, ``peak_over_median``
+        Largest spectral peak above twice the input's dominant frequency, away
+        from its harmonics, and its height over the median of the spectrum
+        there (ringing).
+    """
+    r = np.asarray(residual_um, dtype=float)
+    v = np.asarray(voltage_V, dtype=float)
+    T = 1.0 / sample_rate_hz
+    rate = np.gradient(v, T)
+    tolerance = 0.005 * float(np.ptp(v)) if np.ptp(v) > 0 else 0.0
+    max_lag = int(min(r.size // 4, max(10, round(0.05 * r.size))))
+    lags, rho_v = cross_correlation(r, v, max_lag)
+    _, rho_rate = cross_correlation(r, rate, max_lag)
+    elapsed, sign = time_since_change(v, T, tolerance)
+    late = np.isfinite(elapsed) & (elapsed > 10 * T)
+    signed = r * sign
+    creep_corr = correlation(signed[late], np.log(elapsed[late])) if np.count_nonzero(late) > 10 else 0.0
+    early = np.isfinite(elapsed) & (elapsed <= 20 * T)
+    total = float(np.sum(r**2))
+    f, p = spectrum(r, sample_rate_hz)
+    f_input = dominant_frequency(v, sample_rate_hz)
+    low = f <= max(f_input / 5.0, f[1] if f.size > 1 else 0.0)
+    # ringing shows between the input's harmonics (a loop-shape error sits on them)
+    df = f[1] - f[0] if f.size > 1 else 0.0
+    harmonic = np.zeros(f.size, dtype=bool)
+    if f_input > 0:
+        order = np.round(f / f_input)
+        harmonic = (order >= 1) & (np.abs(f - order * f_input) <= max(1.5 * df, 0.05 * f_input))
+    high = (f > 2.0 * f_input) & ~harmonic
+    peak_f, peak_ratio = 0.0, 0.0
+    if np.count_nonzero(high) > 3:
+        i = int(np.argmax(np.where(high, p, -np.inf)))
+        peak_f, peak_ratio = float(f[i]), float(p[i] / max(np.median(p[high]), 1e-300))
+    i_v, i_rate = int(np.argmax(np.abs(rho_v))), int(np.argmax(np.abs(rho_rate)))
+    rms = float(np.sqrt(np.mean(r**2))) if r.size else 0.0
+    return {
+        "rms_um": rms,
+        "rms_over_noise": rms / noise_um if noise_um > 0 else float("inf"),
+        "rate_correlation": correlation(r, rate),
+        "input_xcorr_peak": float(rho_v[i_v]), "input_xcorr_lag_s": float(lags[i_v] * T),
+        "rate_xcorr_peak": float(rho_rate[i_rate]), "rate_xcorr_lag_s": float(lags[i_rate] * T),
+        "creep_log_correlation": creep_corr,
+        "settling_fraction": float(np.sum(r[early] ** 2) / total) if total > 0 else 0.0,
+        "low_frequency_fraction": float(np.sum(p[low]) / np.sum(p)) if np.sum(p) > 0 else 0.0,
+        "input_frequency_hz": f_input,
+        "peak_frequency_hz": peak_f, "peak_over_median": peak_ratio,
+    }

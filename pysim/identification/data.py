@@ -1,0 +1,663 @@
+"""Measured data: the one loader of voltage/displacement records.
+
+The standard file is a CSV whose header row names the columns ``time_s``,
+``voltage_V`` and ``displacement_um`` (any order; other columns are ignored)::
+
+    time_s,voltage_V,displacement_um
+    0,0,-1.6174316
+    0.0002,0.0942,-1.7242432
+
+Other layouts are read with options: column names or 1-based column numbers,
+no header row, a ``;``, whitespace or other delimiter, and a sample rate when
+there is no time column.  Every problem with a file is a
+:class:`pysim.identification.errors.DataError` whose one-line message names the file, the line
+(1-based, as an editor shows it) and the column (number and name) where that
+applies.
+
+Parsing is fast (``numpy.loadtxt``); when that fails, a careful line-by-line
+scan of the same rules finds the exact line and cell to report, so both paths
+accept and reject exactly the same files.
+"""
+from __future__ import annotations
+
+import csv
+import difflib
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pysim.core.fileio import atomic_write_text
+from pysim.identification.errors import DataError, IdentificationError
+
+__all__ = [
+    "COLUMNS", "MeasuredData", "load_measured", "save_measured", "require_samples",
+    "estimate_sample_rate", "shipped_dataset", "SHIPPED_DATASETS",
+]
+
+#: The standard column names, in the order :func:`save_measured` writes them.
+COLUMNS = ("time_s", "voltage_V", "displacement_um")
+
+#: Data sets shipped in ``data/measured/<name>/<file>`` (standard CSV).
+SHIPPED_DATASETS = {
+    "smart_hysteresis": "hysteresis_v_150_1hz.csv",
+    "discrete_backlash": "model_vi_do.csv",
+}
+
+_WHITESPACE = None  # delimiter value meaning "runs of spaces and tabs"
+_DELIMITER_WORDS = {
+    "comma": ",", "semicolon": ";", "tab": _WHITESPACE, "\\t": _WHITESPACE, "\t": _WHITESPACE,
+    " ": _WHITESPACE, "space": _WHITESPACE, "whitespace": _WHITESPACE,
+}
+_DELIMITER_NAMES = {",": "comma ','", ";": "semicolon ';'", "\t": "tab", " ": "spaces",
+                    "|": "bar '|'", ":": "colon ':'"}
+_DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+([eE][+-]?\d+)?")
+# Relative spread of the sampling intervals below which a record counts as
+# uniformly sampled (timestamps rounded by the logger jitter by far less).
+_UNIFORM_SPREAD = 0.01
+
+
+@dataclass(frozen=True, eq=False)
+class MeasuredData:
+    """A measured record: voltage in, displacement out, on a time grid.
+
+    Parameters
+    ----------
+    time_s : array_like
+        Sample times in s, strictly increasing.
+    voltage_V : array_like
+        Actuator voltage in V.
+    displacement_um : array_like
+        Measured displacement in µm.
+    source : str
+        Where the data came from (the file name as given to the loader).
+    sample_rate_hz : float, optional
+        Sample rate in Hz; estimated from ``time_s`` when not given (see
+        :func:`estimate_sample_rate`).
+
+    Notes
+    -----
+    The arrays are float64 copies and read-only, so a record cannot change
+    after it has been loaded.  ``len(data)`` is the number of samples.
+    """
+
+    time_s: np.ndarray
+    voltage_V: np.ndarray
+    displacement_um: np.ndarray
+    source: str = ""
+    sample_rate_hz: float | None = None
+
+    def __post_init__(self):
+        for name in COLUMNS:
+            array = np.array(getattr(self, name), dtype=np.float64)
+            if array.ndim != 1:
+                raise IdentificationError(f"MeasuredData.{name} must be one-dimensional, got shape {array.shape}")
+            array.setflags(write=False)
+            object.__setattr__(self, name, array)
+        sizes = {self.time_s.size, self.voltage_V.size, self.displacement_um.size}
+        if len(sizes) != 1:
+            raise IdentificationError(f"MeasuredData arrays differ in length: time {self.time_s.size}, "
+                             f"voltage {self.voltage_V.size}, displacement {self.displacement_um.size}")
+        object.__setattr__(self, "source", str(self.source))
+        rate = estimate_sample_rate(self.time_s) if self.sample_rate_hz is None else float(self.sample_rate_hz)
+        object.__setattr__(self, "sample_rate_hz", rate)
+
+    def __len__(self) -> int:
+        return int(self.time_s.size)
+
+
+def estimate_sample_rate(time_s) -> float:
+    """Sample rate in Hz of a strictly increasing time vector in s.
+
+    A uniformly sampled record (every interval within 1 % of the median) gets
+    ``(n - 1) / (t[-1] - t[0])``: loggers round timestamps, and the mean over
+    the whole record removes that rounding (5000 Hz rather than 4999.75 Hz for a
+    5 kHz logger writing 9 significant digits).  A record with gaps gets
+    ``1 / median interval``.  Fewer than two samples give NaN.
+    """
+    t = np.asarray(time_s, dtype=np.float64)
+    if t.size < 2:
+        return math.nan
+    steps = np.diff(t)
+    median = float(np.median(steps))
+    if not median > 0:
+        return math.nan
+    if np.all(np.abs(steps - median) <= _UNIFORM_SPREAD * median):
+        return float((t.size - 1) / (t[-1] - t[0]))
+    return 1.0 / median
+
+
+def require_samples(data: MeasuredData, n_needed: int, what: str) -> None:
+    """Raise :class:`DataError` unless ``data`` has at least ``n_needed`` samples.
+
+    Parameters
+    ----------
+    data : MeasuredData
+    n_needed : int
+        Minimum number of samples.
+    what : str
+        What they are needed for, completing "need at least M for ...", e.g.
+        ``"an MPI model with 10 operators (22 parameters)"``.
+
+    Raises
+    ------
+    DataError
+        ``"<file>: N samples, need at least M for <what>"``.
+    """
+    if len(data) < n_needed:
+        raise DataError(f"{data.source or 'data'}: {len(data)} samples, need at least {n_needed} for {what}")
+
+
+def save_measured(data: MeasuredData, path) -> Path:
+    """Write ``data`` as a standard CSV (``time_s,voltage_V,displacement_um``).
+
+    Values are written as the shortest decimal that reads back to the same
+    float64 (Python's ``repr``), so ``load_measured(save_measured(d, p))``
+    returns exactly the same numbers.  The file is written atomically: on any
+    error no partial file is left behind.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    columns = [getattr(data, name) for name in COLUMNS]
+    for name, values in zip(COLUMNS, columns):
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise DataError(f"{data.source or 'data'}: {name} sample {bad[0]} is {values[bad[0]]}; "
+                            f"only finite values can be saved")
+    lists = [values.tolist() for values in columns]  # Python floats: repr is the shortest round trip
+    body = "".join(f"{t!r},{v!r},{d!r}\n" for t, v, d in zip(*lists))
+    return atomic_write_text(path, ",".join(COLUMNS) + "\n" + body)
+
+
+def shipped_dataset(name: str) -> Path:
+    """Path of a data set shipped with the project, in the standard CSV format.
+
+    Parameters
+    ----------
+    name : str
+        ``"smart_hysteresis"`` (±150 V, 1 Hz, 5 kHz) or ``"discrete_backlash"``
+        (0–3.6 V, 1 Hz, 200 Hz); see ``data/measured/<name>/SOURCE.md``.
+
+    Notes
+    -----
+    The data are ``data/measured/`` in the repository, installed as the package
+    data ``pysim.identification.datasets``.
+    """
+    if name not in SHIPPED_DATASETS:
+        raise DataError(f"unknown data set {name!r}; shipped: {', '.join(sorted(SHIPPED_DATASETS))}")
+    import pysim.identification.datasets as datasets
+
+    path = Path(datasets.__file__).resolve().parent / name / SHIPPED_DATASETS[name]
+    if not path.is_file():
+        raise DataError(f"{path}: shipped data set {name!r} not found: the installation is incomplete")
+    return path
+
+
+# ----------------------------------------------------------------- loading
+
+def load_measured(path, *, time_column=None, voltage_column=None, displacement_column=None,
+                  header=True, delimiter=None, sample_rate_hz=None, skip_rows=0) -> MeasuredData:
+    """Load a measured record from a delimited text file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The data file.
+    time_column, voltage_column, displacement_column : str or int, optional
+        A header name, or a 1-based column number (an int, or a string of
+        digits that is not a header name).  With a header the defaults are the
+        standard names ``time_s``, ``voltage_V``, ``displacement_um``; without a
+        header the voltage and displacement numbers must be given.  The time
+        column is optional when ``sample_rate_hz`` is given.
+    header : bool
+        Whether the first line read (after ``skip_rows``) names the columns.
+    delimiter : str, optional
+        ``","``, ``";"``, whitespace (``" "``, ``"\\t"``, ``"tab"`` or
+        ``"whitespace"``: runs of spaces and tabs) or another single character.
+        Default: detected from the first line read (semicolon, then tab, then
+        comma, else whitespace).
+    sample_rate_hz : float, optional
+        Sample rate in Hz for a file without a time column: ``time_s = k / fs``.
+        Giving it for a file that has a time column is an error (one source of
+        time only).
+    skip_rows : int
+        Lines to skip before the header (or the data).  Line numbers in error
+        messages still count every line of the file.
+
+    Returns
+    -------
+    MeasuredData
+        With ``source`` = ``str(path)`` and ``sample_rate_hz`` the given rate or
+        :func:`estimate_sample_rate` of the time column.
+
+    Raises
+    ------
+    DataError
+        For any file that cannot be used, with a message naming the file, the
+        line and the column where that applies.  Blank lines are skipped; every
+        other line after the header must have as many cells as the header (or
+        the first data row), each used cell a finite number; time must
+        strictly increase; at least 2 samples.
+    """
+    name = str(path)
+    path = Path(path)
+    rate = _check_sample_rate(name, sample_rate_hz)
+    if isinstance(skip_rows, bool) or not isinstance(skip_rows, (int, np.integer)) or skip_rows < 0:
+        raise DataError(f"{name}: skip_rows must be a whole number >= 0, got {skip_rows!r}")
+    lines = _read_lines(path, name)
+
+    first = next((i for i in range(skip_rows, len(lines)) if not _blank(lines[i])), None)
+    if first is None:
+        if skip_rows and any(not _blank(line) for line in lines):
+            raise DataError(f"{name}: nothing left after skipping {skip_rows} lines "
+                            f"(the file has {_count_lines(lines)} lines)")
+        raise DataError(f"{name}: the file is empty (only blank lines)")
+    sep = _resolve_delimiter(name, delimiter, lines[first])
+    cells = _split(lines[first], sep)
+    if len(cells) < 2:
+        raise DataError(_one_column_message(name, first + 1, lines[first], sep, detected=delimiter is None))
+
+    specs = {"time_s": time_column, "voltage_V": voltage_column, "displacement_um": displacement_column}
+    if header:
+        names = [_unquote(cell) for cell in cells]
+        _reject_numeric_header(name, first + 1, names)
+        try:
+            columns = _columns_from_header(name, first + 1, names, specs, rate)
+        except DataError as exc:
+            raise DataError(f"{exc}{_header_further_down(lines, first, specs, rate)}") from None
+        data_start = first + 1
+    else:
+        names = None
+        columns = _columns_from_numbers(name, len(cells), specs, rate)
+        data_start = first
+    reader = _Reader(name, lines, data_start, sep, len(cells), columns, names, header_line=first + 1)
+    table = reader.parse()
+    return reader.validate(table, rate)
+
+
+class _Reader:
+    """Parse and check the data rows of one file (fast path, careful scan)."""
+
+    def __init__(self, name, lines, data_start, sep, n_cells, columns, names, header_line):
+        self.name, self.lines, self.data_start, self.sep = name, lines, data_start, sep
+        self.n_cells, self.columns, self.names, self.header_line = n_cells, columns, names, header_line
+        # Parse each used column once, in file order; ``columns`` maps role -> index.
+        self.used = sorted(set(index for index in columns.values() if index is not None))
+        self.rows = [line for line in lines[data_start:] if not _blank(line)]
+        self._line_numbers = None
+
+    # -- helpers for messages
+    def line_of(self, row: int) -> int:
+        """1-based file line of data row ``row`` (computed only for messages)."""
+        if self._line_numbers is None:
+            self._line_numbers = [self.data_start + k + 1
+                                  for k, line in enumerate(self.lines[self.data_start:]) if not _blank(line)]
+        return self._line_numbers[row]
+
+    def label(self, index: int) -> str:
+        role = next((r for r, i in self.columns.items() if i == index), None)
+        if self.names is None:
+            return f"column {index + 1} ({role})" if role else f"column {index + 1}"
+        shown = self.names[index]
+        if role and shown != role:
+            return f"column {index + 1} ({shown}, used as {role})"
+        return f"column {index + 1} ({shown})"
+
+    def where(self, row: int, index: int) -> str:
+        return f"{self.name}: line {self.line_of(row)}, {self.label(index)}"
+
+    # -- parsing
+    def parse(self) -> np.ndarray:
+        """(n, len(used)) float64 table of the used columns."""
+        if not self.rows:
+            where = (f"after the header (line {self.header_line})" if self.names is not None
+                     else "in the file")
+            raise DataError(f"{self.name}: no data rows {where}; need at least 2 samples")
+        table = self._fast()
+        return table if table is not None else self._careful()
+
+    def _fast(self):
+        if self.sep is _WHITESPACE:
+            counts = np.fromiter((len(line.split()) for line in self.rows), dtype=np.intp, count=len(self.rows))
+            expected = self.n_cells
+        else:
+            counts = np.fromiter((line.count(self.sep) for line in self.rows), dtype=np.intp,
+                                 count=len(self.rows))
+            expected = self.n_cells - 1
+        if np.any(counts != expected):
+            return None
+        try:
+            return np.loadtxt(self.rows, dtype=np.float64, delimiter=self.sep, usecols=self.used,
+                              comments=None, ndmin=2)
+        except ValueError:
+            return None  # the careful scan says where, or accepts (e.g. quoted numbers)
+
+    def _careful(self) -> np.ndarray:
+        table = np.empty((len(self.rows), len(self.used)), dtype=np.float64)
+        for row, line in enumerate(self.rows):
+            cells = _split(line, self.sep)
+            if len(cells) != self.n_cells:
+                raise DataError(self._count_message(row, line, cells))
+            for j, index in enumerate(self.used):
+                table[row, j] = self._number(row, index, cells[index])
+        return table
+
+    def _number(self, row: int, index: int, cell: str) -> float:
+        text = _unquote(cell)
+        if not text:
+            raise DataError(f"{self.where(row, index)}: empty cell, expected a number")
+        try:
+            if "_" in text:  # Python accepts 1_000; a data file should not
+                raise ValueError
+            return float(text)
+        except ValueError:
+            hint = ""
+            if _DECIMAL_COMMA.fullmatch(text):
+                hint = " (decimal comma? write numbers with a '.' as decimal separator)"
+            raise DataError(f"{self.where(row, index)}: {text!r} is not a number{hint}") from None
+
+    def _count_message(self, row, line, cells) -> str:
+        ref = (f"the header (line {self.header_line})" if self.names is not None
+               else f"the first data row (line {self.header_line})")
+        head = f"{self.name}: line {self.line_of(row)}: {len(cells)} cells, but {ref} has {self.n_cells}"
+        if len(cells) < self.n_cells:
+            missing = [i for i in self.used if i >= len(cells)]
+            what = f"; {self.label(missing[0])} is missing" if missing else ""
+            seen = _other_delimiters(line, self.sep)
+            hint = (f" (the line contains {_DELIMITER_NAMES.get(seen[0], repr(seen[0]))}, "
+                    f"the file is read with {_delimiter_name(self.sep)})") if seen else ""
+            return head + what + hint
+        return head + " (too many cells: a stray delimiter or a decimal comma?)"
+
+    # -- checks on the numbers
+    def validate(self, table: np.ndarray, rate) -> MeasuredData:
+        bad = ~np.isfinite(table)
+        if bad.any():
+            row = int(np.flatnonzero(bad.any(axis=1))[0])
+            index = self.used[int(np.flatnonzero(bad[row])[0])]
+            cell = _unquote(_split(self.rows[row], self.sep)[index])
+            raise DataError(f"{self.where(row, index)}: {cell!r} is not a finite number")
+        n = table.shape[0]
+        if n < 2:
+            raise DataError(f"{self.name}: line {self.line_of(0)}: only one data row; need at least 2 samples")
+        column = {role: (None if index is None else table[:, self.used.index(index)])
+                  for role, index in self.columns.items()}
+        time = column["time_s"]
+        if time is None:
+            time = np.arange(n, dtype=np.float64) / rate
+        else:
+            steps = np.diff(time)
+            wrong = np.flatnonzero(~(steps > 0))
+            if wrong.size:
+                k = int(wrong[0])
+                index = self.columns["time_s"]
+                previous = self.line_of(k)
+                if steps[k] == 0:
+                    raise DataError(f"{self.where(k + 1, index)}: duplicate timestamp {float(time[k + 1])!r} s "
+                                    f"(same as line {previous}); time must strictly increase")
+                raise DataError(f"{self.where(k + 1, index)}: time {float(time[k + 1])!r} s is not after "
+                                f"{float(time[k])!r} s on line {previous}; time must strictly increase")
+        return MeasuredData(time, column["voltage_V"], column["displacement_um"], source=self.name,
+                            sample_rate_hz=rate)
+
+
+# ------------------------------------------------------------- file level
+
+def _read_lines(path: Path, name: str) -> list:
+    """The file's lines (newline-free, any line-ending convention)."""
+    if path.is_dir():
+        raise DataError(f"{name}: is a directory, not a data file")
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise DataError(f"{name}: no such file") from None
+    except PermissionError:
+        raise DataError(f"{name}: permission denied") from None
+    except OSError as exc:
+        raise DataError(f"{name}: cannot be read ({exc.strerror or exc})") from None
+    if not raw:
+        raise DataError(f"{name}: the file is empty (0 bytes)")
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):  # spreadsheet "Unicode text" exports
+        text = raw.decode("utf-16")
+    else:
+        nul = raw.find(b"\x00")
+        if nul >= 0:
+            line_no = raw.count(b"\n", 0, nul) + 1
+            raise DataError(f"{name}: line {line_no}: contains a NUL byte; "
+                            f"this is a binary file, not a text data file")
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError:
+            text = raw.decode("latin-1")  # e.g. a 'µm' in a header from an 8-bit Windows tool
+    return text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+
+
+def _count_lines(lines) -> int:
+    return len(lines) - 1 if lines and lines[-1] == "" else len(lines)
+
+
+def _blank(line: str) -> bool:
+    return not line or line.isspace()
+
+
+def _check_sample_rate(name, sample_rate_hz):
+    if sample_rate_hz is None:
+        return None
+    try:
+        rate = float(sample_rate_hz)
+    except (TypeError, ValueError):
+        raise DataError(f"{name}: sample rate must be a number of Hz, got {sample_rate_hz!r}") from None
+    if not (math.isfinite(rate) and rate > 0):
+        raise DataError(f"{name}: sample rate must be a positive finite number of Hz, got {sample_rate_hz!r}")
+    return rate
+
+
+# ------------------------------------------------------------- delimiters
+
+def _resolve_delimiter(name, delimiter, first_line):
+    if delimiter is None:
+        for sep in (";", "\t", ","):
+            if sep in first_line:
+                return _WHITESPACE if sep == "\t" else sep
+        return _WHITESPACE
+    if not isinstance(delimiter, str):
+        raise DataError(f"{name}: delimiter must be a string, got {delimiter!r}")
+    if delimiter.lower() in _DELIMITER_WORDS:
+        return _DELIMITER_WORDS[delimiter.lower()]
+    if len(delimiter) != 1 or delimiter in "\"'\n\r" or delimiter.isalnum() or delimiter in ".+-":
+        raise DataError(f"{name}: unusable delimiter {delimiter!r}; use ',', ';', 'tab', 'whitespace' "
+                        f"or another single punctuation character")
+    return delimiter
+
+
+def _delimiter_name(sep) -> str:
+    return "whitespace" if sep is _WHITESPACE else _DELIMITER_NAMES.get(sep, repr(sep))
+
+
+def _other_delimiters(line: str, sep) -> list:
+    """Delimiter characters in ``line`` other than ``sep``, likeliest first."""
+    seen = [d for d in (";", ",", "\t", "|", ":") if d in line]
+    if " " in line.strip():
+        seen.append(" ")
+    own = (" ", "\t") if sep is _WHITESPACE else (sep,)
+    return [d for d in seen if d not in own]
+
+
+def _one_column_message(name, line_no, line, sep, detected) -> str:
+    how = "detected" if detected else "given"
+    head = f"{name}: line {line_no}: only one column found (delimiter {_delimiter_name(sep)}, {how})"
+    seen = _other_delimiters(line, sep)
+    if seen:
+        other = seen[0]
+        pass_as = "whitespace" if other in " \t" else other
+        return (f"{head}; the line contains {_DELIMITER_NAMES.get(other, repr(other))}: "
+                f"is the file {pass_as!r}-separated? (give delimiter {pass_as!r})")
+    return f"{head}; expected at least a voltage and a displacement column"
+
+
+def _split(line: str, sep) -> list:
+    if sep is _WHITESPACE:
+        return line.split()
+    if '"' not in line:
+        return line.split(sep)
+    return next(csv.reader([line], delimiter=sep, skipinitialspace=True), [])
+
+
+def _unquote(cell: str) -> str:
+    text = cell.strip()
+    if len(text) >= 2 and text[0] == text[-1] and text[0] in "\"'":
+        text = text[1:-1].strip()
+    return text
+
+
+# ---------------------------------------------------------------- columns
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _reject_numeric_header(name, line_no, names) -> None:
+    filled = [cell for cell in names if cell]
+    if filled and all(_is_number(cell) for cell in filled):
+        raise DataError(f"{name}: line {line_no} looks like data, not a header naming the columns "
+                        f"{', '.join(COLUMNS)}; for a file without header give header=False "
+                        f"(pysim: --no-header) and the column numbers")
+
+
+def _as_number(spec):
+    """1-based column number of a column spec, or None if it is a name."""
+    if isinstance(spec, bool):
+        return None
+    if isinstance(spec, (int, np.integer)):
+        return int(spec)
+    if isinstance(spec, str) and spec.strip().isdigit():
+        return int(spec.strip())
+    return None
+
+
+def _check_number(name, role, number, n_cells, where) -> int:
+    if not 1 <= number <= n_cells:
+        raise DataError(f"{name}: {role} column number {number} is out of range: {where} has "
+                        f"{n_cells} columns (numbered from 1)")
+    return number - 1
+
+
+def _columns_from_header(name, line_no, names, specs, rate) -> dict:
+    """Map role -> 0-based column index (time may be None) from header names."""
+    columns, missing = {}, []
+    where = f"the header (line {line_no})"
+    for role, spec in specs.items():
+        if spec is None:
+            wanted = role
+        elif isinstance(spec, str) and spec in names:
+            wanted = spec
+        elif _as_number(spec) is not None:
+            columns[role] = _check_number(name, role, _as_number(spec), len(names), where)
+            continue
+        elif isinstance(spec, str):
+            wanted = spec
+        else:
+            raise DataError(f"{name}: {role} column must be a name or a 1-based number, got {spec!r}")
+        hits = [i for i, cell in enumerate(names) if cell == wanted]
+        if len(hits) > 1:
+            raise DataError(f"{name}: line {line_no}: the header names {wanted!r} more than once "
+                            f"(columns {', '.join(str(i + 1) for i in hits)})")
+        if role == "time_s" and spec is None and rate is not None:
+            if hits:
+                raise DataError(f"{name}: line {line_no}: the file has a time column ({wanted}, column "
+                                f"{hits[0] + 1}) and a sample rate was given too; give only one")
+            columns[role] = None
+            continue
+        if hits:
+            columns[role] = hits[0]
+        else:
+            missing.append((role, wanted))
+    if missing:
+        raise DataError(_missing_message(name, line_no, names, missing, rate))
+    if columns.get("time_s") is not None and rate is not None:
+        raise DataError(f"{name}: a time column and a sample rate were both given; give only one")
+    _reject_shared(name, columns)
+    return columns
+
+
+def _missing_message(name, line_no, names, missing, rate) -> str:
+    parts = []
+    for role, wanted in missing:
+        text = f"{wanted!r}"
+        guess = _close_match(wanted, names)
+        if guess is not None:
+            text += f" (did you mean {names[guess]!r}, column {guess + 1}?)"
+        parts.append(text)
+    noun = "column" if len(parts) == 1 else "columns"
+    found = ", ".join(f"{cell!r} ({i + 1})" for i, cell in enumerate(names))
+    message = f"{name}: line {line_no}: the header has no {noun} {', '.join(parts)}; columns found: {found}"
+    if any(role == "time_s" for role, _ in missing) and rate is None:
+        message += "; without a time column give the sample rate"
+    return message
+
+
+def _header_further_down(lines, first, specs, rate) -> str:
+    """A hint when a preamble sits above the real header: where the header is."""
+    wanted = [spec if isinstance(spec, str) else role for role, spec in specs.items()
+              if _as_number(spec) is None and not (role == "time_s" and spec is None and rate is not None)]
+    for i in range(first + 1, min(len(lines), first + 100)):
+        if all(word in lines[i] for word in wanted):
+            return f"; the header seems to be line {i + 1}: skip {i} lines (skip_rows={i})"
+    return ""
+
+
+def _close_match(wanted: str, names) -> int | None:
+    """Index of the header name closest to ``wanted`` (case first, then spelling)."""
+    for i, cell in enumerate(names):
+        if cell.lower() == wanted.lower():
+            return i
+    guess = difflib.get_close_matches(wanted, names, n=1, cutoff=0.6)
+    if not guess:
+        lowered = [cell.lower() for cell in names]
+        guess = difflib.get_close_matches(wanted.lower(), lowered, n=1, cutoff=0.6)
+        return lowered.index(guess[0]) if guess else None
+    return names.index(guess[0])
+
+
+def _columns_from_numbers(name, n_cells, specs, rate) -> dict:
+    """Map role -> 0-based column index for a file without header."""
+    columns = {}
+    where = "the first data row"
+    for role, spec in specs.items():
+        if spec is None:
+            if role == "time_s":
+                if rate is None:
+                    raise DataError(f"{name}: no time column and no sample rate; for a file without header "
+                                    f"give the time column number or the sample rate in Hz")
+                columns[role] = None
+                continue
+            raise DataError(f"{name}: the file has no header, so give the {role} column by number "
+                            f"(1-based; {where} has {n_cells} columns)")
+        number = _as_number(spec)
+        if number is None:
+            raise DataError(f"{name}: without a header, columns are given by number (1-based), "
+                            f"got {spec!r} for {role}")
+        columns[role] = _check_number(name, role, number, n_cells, where)
+    if columns["time_s"] is not None and rate is not None:
+        raise DataError(f"{name}: a time column and a sample rate were both given; give only one")
+    _reject_shared(name, columns)
+    return columns
+
+
+def _reject_shared(name, columns) -> None:
+    seen = {}
+    for role, index in columns.items():
+        if index is None:
+            continue
+        if index in seen:
+            raise DataError(f"{name}: column {index + 1} is given for both {seen[index]} and {role}")
+        seen[index] = role
