@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import ctypes
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -430,8 +430,14 @@ class ExtendedModel:
         return self.stages.sample_period_s
 
     def with_parameters(self, **changes) -> "ExtendedModel":
-        """A copy with hysteresis fields (``name``, ``a2``, ...) replaced."""
-        return ExtendedModel(self.hysteresis.with_parameters(**changes), self.stages)
+        """A copy with fields of either part replaced: stage fields
+        (``creep_weights_um_per_V``, ...) go to ``stages``, the others
+        (``name``, ``a2``, ...) to ``hysteresis``."""
+        stage_fields = {f.name for f in fields(StageSpec) if f.init}
+        staged = {key: value for key, value in changes.items() if key in stage_fields}
+        rest = {key: value for key, value in changes.items() if key not in stage_fields}
+        return ExtendedModel(self.hysteresis.with_parameters(**rest) if rest else self.hysteresis,
+                             replace(self.stages, **staged) if staged else self.stages)
 
     def major_loop_gain(self) -> float:
         """Static gain, µm/V: the hysteresis part's major-loop gain through the
