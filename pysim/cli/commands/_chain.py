@@ -39,12 +39,9 @@ class Chain:
 
 
 def load_model(spec):
-    from pysim.core.spec import SpecError, load_spec
+    from pysim.core.spec import load_spec
 
-    try:
-        return load_spec(spec)
-    except SpecError as exc:
-        raise UserError(str(exc)) from exc
+    return load_spec(spec)     # a SpecError is reported by pysim.cli.main
 
 
 def open_chain(args, step_s: float = 1e-4, sweep: bool = False) -> Chain:

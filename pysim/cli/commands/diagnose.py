@@ -43,7 +43,7 @@ def _check_output(path: str, what: str) -> None:
 
 
 def run(args) -> int:
-    from pysim.core.spec import SpecError, model_name_from_path, write_spec
+    from pysim.core.spec import model_name_from_path, write_spec
     from pysim.diagnosis.diagnose import diagnose
 
     if args.operators < 1:
@@ -72,10 +72,7 @@ def run(args) -> int:
 
         write_report(result, args.report)
     if args.out:
-        try:
-            write_spec(result.extended.model, args.out, header=_spec_header(result))
-        except SpecError as exc:
-            raise UserError(str(exc)) from exc
+        write_spec(result.extended.model, args.out, header=_spec_header(result))
     if args.json:
         print(json.dumps(result.as_json(), indent=2))
     else:

@@ -56,7 +56,7 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from pysim.core.spec import SpecError, model_name_from_path, write_spec
+    from pysim.core.spec import model_name_from_path, write_spec
     from pysim.identification.identify import IdentificationError, identify
 
     if args.operators < 1:
@@ -83,15 +83,12 @@ def run(args) -> int:
             raise UserError(f"{data.source}: {exc}") from exc
     chosen = results[args.model]
     if args.out:
-        try:
-            write_spec(chosen.model, args.out,
-                       header=f"{args.model.upper()} model ({args.operators} {args.operator} operators) "
-                              f"identified from {Path(data.source).name} by pysim identify.\n\n"
-                              f"Fit errors (% of measured range, after a warm-up of "
-                              f"{chosen.warmup_samples} samples): max {chosen.errors['max_error_pct']:.3f}, "
-                              f"RMS {chosen.errors['rms_error_pct']:.3f}, mean {chosen.errors['mean_error_pct']:.3f}.")
-        except SpecError as exc:
-            raise UserError(str(exc)) from exc
+        write_spec(chosen.model, args.out,
+                   header=f"{args.model.upper()} model ({args.operators} {args.operator} operators) "
+                          f"identified from {Path(data.source).name} by pysim identify.\n\n"
+                          f"Fit errors (% of measured range, after a warm-up of "
+                          f"{chosen.warmup_samples} samples): max {chosen.errors['max_error_pct']:.3f}, "
+                          f"RMS {chosen.errors['rms_error_pct']:.3f}, mean {chosen.errors['mean_error_pct']:.3f}.")
     if args.json:
         print(json.dumps({
             "model": args.model,
