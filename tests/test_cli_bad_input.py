@@ -12,7 +12,6 @@ reused here.)
 from __future__ import annotations
 
 import math
-import os
 import subprocess
 import sys
 import zipfile
@@ -180,14 +179,21 @@ def test_bandwidth_refuses_a_spec_without_inverse_naming_the_voltage(tmp_path, c
 
 
 # ------------------------------------------------ the real programs, once each
+def installed_program(name: str) -> str:
+    """The console script the installation put beside the interpreter (as a user runs it)."""
+    path = Path(sys.executable).parent / name
+    assert path.is_file(), f"{name} is not installed beside {sys.executable}"
+    return str(path)
+
+
 @pytest.mark.parametrize("command", [
-    [sys.executable, "-m", "pysim.cli.main", "diagnose", str(BAD / "nan.csv")],
-    [sys.executable, "-m", "build_fmu.cli", "no_such_spec.py", "-o", "out"],
-    [sys.executable, "-m", "pysim.cli.main", "bandwidth", "--plant", "missing.fmu", "--inverse", "missing.fmu"],
+    ["pysim", "diagnose", str(BAD / "nan.csv")],
+    ["build-fmu", "no_such_spec.py", "-o", "out"],
+    ["pysim", "bandwidth", "--plant", "missing.fmu", "--inverse", "missing.fmu"],
 ], ids=["diagnose", "build-fmu", "bandwidth"])
 def test_programs_exit_with_code_2_and_one_line(tmp_path, command):
-    result = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=120,
-                            env=dict(os.environ, PYTHONPATH=str(ROOT)))
+    command = [installed_program(command[0])] + command[1:]
+    result = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert result.returncode == 2
     assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr, result.stderr
     assert list(tmp_path.iterdir()) == []

@@ -2,6 +2,7 @@
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -12,7 +13,9 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
 def pysim(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "pysim.cli.main", *map(str, args)], capture_output=True,
+    # the console script the installation put beside the interpreter, as a user runs it
+    program = Path(sys.executable).parent / "pysim"
+    return subprocess.run([str(program), *map(str, args)], capture_output=True,
                           text=True, cwd=cwd, timeout=600)
 
 
