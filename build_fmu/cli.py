@@ -22,6 +22,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--platforms", nargs="+", default=list(DEFAULT_PLATFORMS), choices=sorted(PLATFORMS),
                         metavar="PLATFORM",
                         help=f"binaries to build (default: all of {', '.join(DEFAULT_PLATFORMS)})")
+    parser.add_argument("--kinds", nargs="+", default=["plant", "inverse"], choices=["plant", "inverse"],
+                        help="which FMUs to build (default both); a plant alone builds from a model whose "
+                             "inverse does not exist")
     parser.add_argument("--no-cache", action="store_true", help="compile everything again")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return parser
@@ -31,7 +34,8 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     progress = None if args.quiet else (lambda message: print(f"build-fmu: {message}", flush=True))
     try:
-        build_fmus(args.spec, args.output, args.platforms, use_cache=not args.no_cache, progress=progress)
+        build_fmus(args.spec, args.output, args.platforms, use_cache=not args.no_cache, progress=progress,
+                   kinds=args.kinds)
     except ToolchainError as exc:
         print(f"build-fmu: error: {exc}", file=sys.stderr)
         return 1

@@ -485,3 +485,28 @@ def fmus_for_model(model, out_dir=None) -> tuple[Path, Path]:
         out_dir = cache_dir() / "fmus" / f"{model.name}-{digest}"
     paths = build_fmus(model, Path(out_dir), platforms=(platform,))
     return Path(paths["plant"]), Path(paths["inverse"])
+
+
+def plant_fmu_for_model(model, out_dir=None) -> Path:
+    """The plant FMU of ``model`` for this machine, built if needed -- also
+    for a model whose inverse does not exist (a rig's true actuator).
+
+    Parameters
+    ----------
+    model : HysteresisModel or ExtendedModel
+    out_dir : str or Path, optional
+        As in :func:`fmus_for_model`.
+    """
+    import hashlib
+
+    from fmpy import platform
+
+    from pysim.core.spec import spec_source
+    from pysim.core.toolchain import cache_dir
+    from pysim.fmu import build_fmus
+
+    if out_dir is None:
+        digest = hashlib.sha256(spec_source(model).encode()).hexdigest()[:12]
+        out_dir = cache_dir() / "fmus" / f"{model.name}-{digest}"
+    return Path(build_fmus(model, Path(out_dir), platforms=(platform,), kinds=("plant",))["plant"])
+

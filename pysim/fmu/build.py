@@ -45,9 +45,11 @@ def default_cache_dir() -> Path:
     return cache_dir() / "fmu-binaries"
 
 
-def check_model(model, source="spec") -> str:
+def check_model(model, source="spec", kinds=KINDS) -> str:
     """Refuse what the FMUs cannot represent; returns the invertibility text
-    (of the hysteresis part, for an extended model)."""
+    (of the hysteresis part, for an extended model).  Only the inverse FMU
+    needs an invertible model: a plant alone (``kinds=("plant",)``) builds
+    from any model and the text then says whether an inverse would exist."""
     if type(model) not in (HysteresisModel, ExtendedModel):
         raise BuildError(f"{source}: {type(model).__name__} is not supported by build-fmu "
                          "(it exports HysteresisModel and ExtendedModel specs only)")
@@ -58,8 +60,9 @@ def check_model(model, source="spec") -> str:
         raise BuildError(f"{source}: the model name {model.name!r} must be ASCII: it names the FMU's C "
                          "identifier and files")
     report = model.check_invertibility()
-    if not report.invertible:
-        raise BuildError(f"{source}: the inverse FMU cannot be built: {report.message}")
+    if not report.invertible and "inverse" in kinds:
+        raise BuildError(f"{source}: the inverse FMU cannot be built: {report.message} (a plant FMU "
+                         "alone builds from it: build-fmu --kinds plant)")
     return report.message
 
 
@@ -87,7 +90,7 @@ def fmu_models(model) -> dict:
 
 
 def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache=True,
-               cache_dir=None, progress=None) -> dict:
+               cache_dir=None, progress=None, kinds=KINDS) -> dict:
     """Build ``<name>_plant.fmu`` and ``<name>_inverse.fmu``.
 
     For an extended spec with output stages the plant includes the stages
@@ -108,6 +111,9 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
         Where cached binaries live (default :func:`default_cache_dir`).
     progress : callable(str), optional
         Called with one line per step.
+    kinds : iterable of {"plant", "inverse"}
+        The FMUs to build (default both).  A plant alone builds from a model
+        whose inverse does not exist (a rig's true actuator, say).
 
     Returns
     -------
@@ -130,6 +136,9 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
     source = (spec_or_model if not isinstance(spec_or_model, (HysteresisModel, ExtendedModel))
               else f"model {model.name}")
     names = _platform_names(platforms)
+    kinds = tuple(k for k in KINDS if k in tuple(kinds))
+    if not kinds:
+        raise BuildError(f"kinds must name at least one of {KINDS}")
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise BuildError(f"{out_dir}: exists and is not a folder")
@@ -137,7 +146,7 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
     what = f"{model.n_operators} {plant_parts(model)[0].operator} operators, {lo:g} V to {hi:g} V"
     say(f"loaded {source}: model {model.name}, {what}" if source != f"model {model.name}"
         else f"model {model.name}: {what}")
-    say(check_model(model, source))
+    say(check_model(model, source, kinds))
     models = fmu_models(model)
     if isinstance(model, ExtendedModel):
         stages = output_stages(models["plant"])
@@ -149,12 +158,12 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
                 "(the stages are not inverted)")
 
     version = tool_version()
-    files = {kind: fmu_sources(models[kind], kind, SOURCE_DIR, version) for kind in KINDS}
-    idents = {kind: model_identifier(models[kind], kind) for kind in KINDS}
+    files = {kind: fmu_sources(models[kind], kind, SOURCE_DIR, version) for kind in kinds}
+    idents = {kind: model_identifier(models[kind], kind) for kind in kinds}
     say(f"generated modelDescription.xml and model_config.h for {', '.join(idents.values())}")
 
     jobs = []
-    for kind in KINDS:
+    for kind in kinds:
         sources = {path[len("sources/"):]: data for path, data in files[kind].items()
                    if path.startswith("sources/")}
         jobs += [(idents[kind], sources, name) for name in names]
@@ -170,14 +179,14 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
 
     result = {}
     with staged_directory(out_dir) as staging:
-        for kind in KINDS:
+        for kind in kinds:
             ident = idents[kind]
             content = dict(files[kind])
             for name in names:
                 content[f"binaries/{name}/{ident}{PLATFORMS[name].suffix}"] = built[(ident, name)]
             (staging / f"{ident}.fmu").write_bytes(fmu_bytes(content))
             result[kind] = out_dir / f"{ident}.fmu"
-    for kind in KINDS:
+    for kind in kinds:
         say(f"wrote {result[kind]} ({os.path.getsize(result[kind]) / 1024:.0f} kB, "
             f"{', '.join(names)} + sources)")
     return result

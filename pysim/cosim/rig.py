@@ -1,0 +1,412 @@
+"""A rig in co-simulation: the compensator against an actuator it does not
+mirror, with amplifier, converters, sensor noise and feedback.
+
+:class:`Rig` describes a nanopositioning rig part by part (a composition: the
+actuator's plant model, then amplifier, stage, sensor, converters and
+controller; each part's discrete behaviour is defined in
+:mod:`pysim.core.rig`).  :class:`RigSimulation` runs it at a fixed
+communication step ``h`` (the controller's sample period) with the plant as an
+FMU and, for compensation, the inverse FMU of *another* model -- typically one
+identified from data recorded on the rig -- so what the co-simulation predicts
+is what mismatch, converters, amplifier limits and noise leave.
+
+Co-simulation semantics
+-----------------------
+The rig is a chain of units connected at the communication points, exactly as
+a fixed-step co-simulation master runs connected FMUs (the scheme of fmpy's
+SSP simulation, so an SSP of the rig's FMUs gives the same samples):
+
+- at every step each unit reads its inputs -- the values its sources had at
+  the end of the *previous* step (all values start at 0, the rig at rest at
+  0 V) -- advances over ``[t, t + h)`` with them held, and exposes its outputs
+  at ``t + h``;
+- then the connections carry the new outputs to the inputs.
+
+So no unit sees a value computed in the same step: no algebraic loop, one pass
+per step, and each connection is a sample-and-hold.  The units and what they
+compute in a step (``[.]`` = input held over the step):
+
+=============  ==========================================  =======================
+unit           output at ``t + h``                         inputs from
+=============  ==========================================  =======================
+inverse        ``P^-1[r_ahead]`` (V), the inverse FMU      reference ahead
+controller     ``DAC(u / gain)``, ``u = PI(r - m, ff)``    reference, sensor, feedforward
+amplifier      ``a`` after one step of :class:`Amplifier`  controller
+actuator       ``H[v]`` (µm), the plant FMU                amplifier
+stage          ZOH state-space step of the stage (µm)      actuator
+sensor         ``ADC(s + noise)`` (µm)                     stage
+=============  ==========================================  =======================
+
+The feedforward ``ff`` is ``ff_scale * input + ff_offset``: the inverse's
+voltage (scale 1, offset 0) on the compensated paths; the reference itself
+through the nominal drive (scale 1/gain, offset of the first loading curve) on
+the uncompensated path.  Because every connection holds for a step, the
+feedforward is fed the reference ``preview`` steps ahead (the DSP generates the
+reference, so it knows it): 6 steps with the inverse unit in front, 5 without,
+which lines the stage's output up with the reference.  The feedback sees the
+real latency of the loop.
+
+Paths (configurations) a rig can run:
+
+``"uncompensated"``        open loop, nominal drive ``v = x_d / gain``
+``"compensated"``          open loop, the inverse FMU as feedforward
+``"feedback"``             the PI controller alone
+``"feedback+compensated"`` the PI controller with the inverse FMU as feedforward
+"""
+from __future__ import annotations
+
+import ctypes
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pysim.core.rig import Amplifier, Converter, PIController, SensorNoise
+from pysim.cosim.errors import CoSimulationError
+from pysim.cosim.harness import INVERSE_PORTS, PLANT_PORTS, CoSimResult, FMUUnit, NominalDrive, _failure
+from pysim.cosim.stage import as_siso, discretise
+
+PATHS = ("uncompensated", "compensated", "feedback", "feedback+compensated")
+# steps from the feedforward's input to the stage's output (see the module notes)
+PREVIEW_STEPS = {"with_inverse": 6, "without_inverse": 5}
+
+__all__ = ["Rig", "RigSimulation", "RigResult", "PATHS", "linear_loop"]
+
+
+@dataclass(frozen=True)
+class Rig:
+    """A nanopositioning rig, part by part.
+
+    Parameters
+    ----------
+    plant : HysteresisModel or ExtendedModel
+        The actuator as it *is* (the truth of the simulation), V -> µm.
+    stage : control.TransferFunction or control.StateSpace, optional
+        Stage dynamics, µm of actuator -> µm of stage (None: none).
+    amplifier : Amplifier
+        Command (V) -> actuator voltage (V).
+    dac : Converter
+        The controller's output converter, V (0-10 V on the paper's rig).
+    adc : Converter
+        The sensor's converter, in µm of stage displacement.
+    noise : SensorNoise
+        Measurement noise.
+    controller : PIController
+        The feedback controller (used by the feedback paths).
+    step_s : float
+        The controller's sample period, s.
+    name, description : str
+        Identifier and where the numbers come from.
+    """
+
+    plant: object
+    stage: object = None
+    amplifier: Amplifier = field(default_factory=Amplifier)
+    dac: Converter = field(default_factory=Converter)
+    adc: Converter = field(default_factory=lambda: Converter(16, -10.0, 110.0))
+    noise: SensorNoise = field(default_factory=SensorNoise)
+    controller: PIController = field(default_factory=PIController)
+    step_s: float = 1e-4
+    name: str = "rig"
+    description: str = ""
+
+    def __post_init__(self):
+        if not (isinstance(self.step_s, (int, float)) and math.isfinite(self.step_s) and self.step_s > 0):
+            raise CoSimulationError(f"rig step_s must be a positive number of seconds, got {self.step_s!r}")
+        for name, kind in (("amplifier", Amplifier), ("dac", Converter), ("adc", Converter),
+                           ("noise", SensorNoise), ("controller", PIController)):
+            if not isinstance(getattr(self, name), kind):
+                raise CoSimulationError(f"rig {name} must be a {kind.__name__}, got "
+                                        f"{type(getattr(self, name)).__name__}")
+        if self.stage is not None:
+            as_siso(self.stage)
+        plant_T = getattr(getattr(self.plant, "stages", None), "sample_period_s", 0.0)
+        if getattr(getattr(self.plant, "stages", None), "present", False) and not math.isclose(
+                plant_T, self.step_s, rel_tol=1e-9):
+            raise CoSimulationError(f"the plant's output stages run at {plant_T} s but the rig samples at "
+                                    f"{self.step_s} s: identify the plant at the rig's rate")
+
+    def with_parts(self, **changes) -> "Rig":
+        """A copy with some parts replaced (``plant=``, ``amplifier=``, ...)."""
+        from dataclasses import replace
+
+        return replace(self, **changes)
+
+    @property
+    def voltage_range_V(self) -> tuple:
+        return self.amplifier.output_low_V, self.amplifier.output_high_V
+
+
+@dataclass
+class RigResult(CoSimResult):
+    """A :class:`pysim.cosim.harness.CoSimResult` with what the rig adds.
+
+    Attributes
+    ----------
+    command_V : ndarray
+        DAC output held over each sample, V.
+    measured_um : ndarray
+        The sensor's reading after the ADC, µm.
+    path : str
+        The configuration that ran.
+    """
+
+    command_V: np.ndarray = None
+    measured_um: np.ndarray = None
+    path: str = ""
+
+
+class _Stage:
+    """The stage as a state-space recursion on Python floats (exact ZOH at T)."""
+
+    def __init__(self, system, step_s):
+        if system is None:
+            self.A = self.B = self.C = []
+            self.D = 1.0
+        else:
+            d = discretise(system, step_s, method="zoh")
+            self.A = np.asarray(d.A, dtype=float).tolist()
+            self.B = np.asarray(d.B, dtype=float).ravel().tolist()
+            self.C = np.asarray(d.C, dtype=float).ravel().tolist()
+            self.D = float(np.asarray(d.D, dtype=float).ravel()[0])
+        self.z = [0.0] * len(self.B)
+
+    def rest_at(self, x):
+        """State of the input ``x`` held since forever."""
+        n = len(self.B)
+        if not n:
+            return
+        A = np.array(self.A)
+        B = np.array(self.B)
+        self.z = np.linalg.solve(np.eye(n) - A, B * x).tolist()
+
+
+class RigSimulation:
+    """Runs a :class:`Rig` with its plant FMU and, for compensation, an inverse FMU.
+
+    Parameters
+    ----------
+    rig : Rig
+    plant_fmu : path
+        The FMU of ``rig.plant`` (built with :func:`pysim.cosim.harness.fmus_for_model`,
+        which also builds plants whose inverse does not exist).
+    inverse_fmu : path, optional
+        The compensator: the inverse FMU of the model the controller believes in.
+    drive : NominalDrive, optional
+        The uncompensated drive (default: from the compensator's model if given
+        via :meth:`from_models`, else measured through the plant FMU).
+
+    Notes
+    -----
+    Use as a context manager (or call :meth:`close`).  Every :meth:`run` starts
+    from the rig at rest: the actuator demagnetised at the voltage of the first
+    command, the stage at equilibrium, the controller's integrator empty.
+    """
+
+    def __init__(self, rig: Rig, plant_fmu, inverse_fmu=None, drive: NominalDrive | None = None):
+        if not isinstance(rig, Rig):
+            raise CoSimulationError(f"rig must be a Rig, got {type(rig).__name__}")
+        self.rig = rig
+        self.step_s = float(rig.step_s)
+        self.stage_system = rig.stage
+        self._units = []
+        try:
+            self.plant = self._open(plant_fmu, PLANT_PORTS, "plant")
+            self.inverse = None if inverse_fmu is None else self._open(inverse_fmu, INVERSE_PORTS, "inverse")
+            self.drive = drive if drive is not None else NominalDrive.from_plant(self)
+        except BaseException:
+            self.close()
+            raise
+
+    @classmethod
+    def from_models(cls, rig: Rig, compensator_model=None, fmu_dir=None) -> "RigSimulation":
+        """Build (or reuse from the cache) the plant FMU of ``rig.plant`` and the
+        inverse FMU of ``compensator_model`` (the hysteresis part is inverted;
+        None: open loop without inverse), then open the simulation."""
+        from pysim.cosim.harness import fmus_for_model, plant_fmu_for_model
+
+        plant = plant_fmu_for_model(rig.plant, fmu_dir)
+        inverse = None
+        drive = None
+        if compensator_model is not None:
+            _, inverse = fmus_for_model(compensator_model, fmu_dir)
+            drive = NominalDrive.from_model(getattr(compensator_model, "hysteresis", compensator_model))
+        return cls(rig, plant, inverse, drive)
+
+    def _open(self, path, ports, name):
+        unit = FMUUnit(path, ports, name)
+        self._units.append(unit)
+        return unit
+
+    # used by NominalDrive.from_plant: a voltage-driven run of the bare plant
+    def reset(self, step_s=None, prewarp_hz=None):
+        for unit in self._units:
+            unit.reset()
+
+    def run(self, reference_um=None, *, voltage_V=None):
+        """The bare plant FMU driven by ``voltage_V`` (no rig parts): for the
+        nominal drive.  Rig runs use :meth:`run_path`."""
+        if voltage_V is None:
+            raise CoSimulationError("RigSimulation.run drives the bare plant; use run_path for the rig")
+        v = np.asarray(voltage_V, dtype=float)
+        y = self._plant_outputs(v)
+        t = np.arange(v.size) * self.step_s
+        return CoSimResult(t, None, v, y, y.copy())
+
+    def _plant_outputs(self, voltages):
+        p = self.plant
+        u, y = (ctypes.c_double * 1)(), (ctypes.c_double * 1)()
+        t, h, one, true = ctypes.c_double(), ctypes.c_double(self.step_s), ctypes.c_size_t(1), ctypes.c_int(1)
+        out = np.empty(len(voltages))
+        for k, v in enumerate(voltages):
+            u[0] = v
+            t.value = k * self.step_s
+            if (p.set_real(p.component, p.input_vr, one, u) | p.get_real(p.component, p.output_vr, one, y)
+                    | p.do_step(p.component, t, h, true)) > 1:
+                raise _failure(p, u, y, t.value, "voltage", v)
+            out[k] = y[0]
+        return out
+
+    def close(self):
+        while self._units:
+            self._units.pop().close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # ---------------------------------------------------------------- rig
+    def run_path(self, reference_um, path: str) -> RigResult:
+        """One run of the rig in configuration ``path`` (see the module notes)
+        for the reference ``reference_um`` (µm, one sample per step), from
+        rest at 0 V."""
+        if path not in PATHS:
+            raise CoSimulationError(f"path must be one of {PATHS}, got {path!r}")
+        compensated = path in ("compensated", "feedback+compensated")
+        feedback = path.startswith("feedback")
+        if compensated and self.inverse is None:
+            raise CoSimulationError(f"the {path} path needs an inverse FMU")
+        if feedback and not self.rig.controller.active:
+            raise CoSimulationError(f"the {path} path needs a controller with kp or ki > 0")
+        r = np.asarray(reference_um, dtype=float)
+        if r.ndim != 1 or r.size == 0 or not np.all(np.isfinite(r)):
+            raise CoSimulationError("the reference must be a non-empty one-dimensional finite array")
+        self.reset()
+        preview = PREVIEW_STEPS["with_inverse" if compensated else "without_inverse"]
+        ahead = np.concatenate([r[preview:], np.full(min(preview, r.size), r[-1])])
+        if compensated:
+            scale, offset = 1.0, 0.0
+        elif feedback:
+            scale, offset = 0.0, 0.0
+        else:
+            scale = 1.0 / self.drive.gain_um_per_V
+            offset = self.drive.low_V - self.drive.low_um / self.drive.gain_um_per_V
+        return self._loop(r, ahead, compensated, feedback, scale, offset, path)
+
+    def _loop(self, r, ahead, compensated, feedback, ff_scale, ff_offset, path):
+        rig, T = self.rig, self.step_s
+        amp, dac, adc, pi = rig.amplifier, rig.dac, rig.adc, rig.controller
+        alpha, max_change = amp.coefficients(T)
+        gain = amp.gain_V_per_V
+        lo, hi = pi.output_low_V, pi.output_high_V
+        noise_rms = rig.noise.rms_um
+        noise = rig.noise.generator()
+        stage = _Stage(rig.stage, T)
+        A, B, C, D = stage.A, stage.B, stage.C, stage.D
+        rows = range(len(B))
+        z = [0.0] * len(B)
+        one, true = ctypes.c_size_t(1), ctypes.c_int(1)
+        t, h = ctypes.c_double(), ctypes.c_double(T)
+        p, q = self.plant, self.inverse
+        p_set, p_get, p_step, pc, p_in, p_out = (p.set_real, p.get_real, p.do_step, p.component, p.input_vr,
+                                                 p.output_vr)
+        if q is not None:
+            q_set, q_get, q_step, qc, q_in, q_out = (q.set_real, q.get_real, q.do_step, q.component,
+                                                     q.input_vr, q.output_vr)
+        p_u, p_y, q_u, q_y = ((ctypes.c_double * 1)() for _ in range(4))
+        # connector values: what each unit exposed at the end of the previous step
+        c_ref = c_ahead = c_ff = c_cmd = c_amp = c_act = c_stage = c_meas = 0.0
+        a = amp.initial_state(0.0)          # amplifier at rest at 0 V
+        integrator = 0.0
+        n = r.size
+        out = {key: np.empty(n) for key in ("command", "voltage", "actuator", "stage", "measured")}
+        reference, preview = r.tolist(), ahead.tolist()
+        for k in range(n):
+            t.value = k * T
+            # inverse: its output for the held reference ahead
+            if compensated:
+                q_u[0] = c_ahead
+                if (q_set(qc, q_in, one, q_u) | q_get(qc, q_out, one, q_y) | q_step(qc, t, h, true)) > 1:
+                    raise _failure(q, q_u, q_y, t.value, "reference", c_ahead)
+                ff_next = q_y[0]
+            else:
+                ff_next = 0.0
+            # controller: the command it exposes at t + h
+            f = ff_scale * (c_ff if compensated else c_ahead) + ff_offset if not feedback or compensated \
+                else 0.0
+            if feedback:
+                u, integrator = pi.step(integrator, c_ref - c_meas, f, T)
+            else:
+                u = min(max(f, lo), hi)
+            cmd_next = dac.convert(u / gain)
+            # amplifier over the step with the held command
+            a = amp._step(a, c_cmd, alpha, max_change)
+            # actuator (plant FMU) for the held voltage
+            p_u[0] = c_amp
+            if (p_set(pc, p_in, one, p_u) | p_get(pc, p_out, one, p_y) | p_step(pc, t, h, true)) > 1:
+                raise _failure(p, p_u, p_y, t.value, "voltage", c_amp)
+            act_next = p_y[0]
+            # stage: ZOH step with the held actuator displacement
+            if rows:
+                z = [sum(A[i][j] * z[j] for j in rows) + B[i] * c_act for i in rows]
+                stage_next = D * c_act
+                for i in rows:
+                    stage_next += C[i] * z[i]
+            else:
+                stage_next = D * c_act
+            # sensor for the held stage displacement
+            meas_next = adc.convert(c_stage + noise_rms * noise.next()) if noise_rms else adc.convert(c_stage)
+            # connections
+            c_ref, c_ahead = reference[k], preview[k]
+            c_ff, c_cmd, c_amp, c_act, c_stage, c_meas = ff_next, cmd_next, a, act_next, stage_next, meas_next
+            out["command"][k], out["voltage"][k], out["actuator"][k] = c_cmd, c_amp, c_act
+            out["stage"][k], out["measured"][k] = c_stage, c_meas
+        # row k holds the values at t_{k+1}: the reference is compared at the same instants
+        time = (np.arange(n) + 1) * T
+        reference_at = np.concatenate([r[1:], r[-1:]])
+        return RigResult(time, reference_at, out["voltage"], out["actuator"], out["stage"],
+                         command_V=out["command"], measured_um=out["measured"], path=path)
+
+
+def linear_loop(rig: Rig, plant_gain_um_per_V: float):
+    """The rig's feedback loop as a python-control discrete system, for a
+    linear actuator of gain ``plant_gain_um_per_V`` with ideal converters and an
+    amplifier without bandwidth or slew limit: reference (µm) -> stage (µm),
+    feedback alone.
+
+    The loop gain is ``C(z) z^-2 g G(z)``: the PI controller
+    ``kp + ki T / (z - 1)``, one sample of computation delay, one of the
+    amplifier's hold, the actuator gain and the stage discretised with ZOH.
+
+    Examples
+    --------
+    >>> import control
+    >>> from pysim.core import HysteresisModel
+    >>> from pysim.core.rig import PIController
+    >>> rig = Rig(HysteresisModel(0.0, 0.5, (0.0,), (0.0,)), controller=PIController(0.5, 500.0))
+    >>> loop = linear_loop(rig, 0.5)
+    >>> round(float(control.dcgain(loop)), 12)
+    1.0
+    """
+    import control
+
+    T = rig.step_s
+    z = control.tf([1.0, 0.0], [1.0], T)
+    pi = rig.controller
+    controller = pi.kp_V_per_um + pi.ki_V_per_um_s * T / (z - 1)
+    delay = 1 / (z * z)
+    stage = control.tf([1.0], [1.0], T) if rig.stage is None else control.tf(discretise(rig.stage, T, "zoh"))
+    forward = controller * delay * plant_gain_um_per_V * stage
+    return control.feedback(forward, 1)
