@@ -29,7 +29,10 @@ def test_identify_writes_a_spec_that_reproduces_the_fit(tmp_path, capsys, name):
     assert model.name == f"{name}_mpi"
     assert model.check_invertibility().invertible
     data = load_measured(data_file)
-    prediction = model.simulate(data.voltage_V)
+    # the spec and the estimated initial operator state reproduce the fit on every fitted sample
+    identifiability = report["identifiability"]
+    assert identifiability["initial_state_estimated"] and report["warmup_samples"] == 0
+    prediction = model.simulate(data.voltage_V, identifiability["initial_state_V"])
     fit = slice(report["warmup_samples"], None)
     error = np.abs(prediction[fit] - data.displacement_um[fit])
     span = np.ptp(data.displacement_um[fit])

@@ -1,11 +1,17 @@
 """Identification: exact recovery, noise level, invertibility constraints, global optimality."""
 import numpy as np
 import pytest
-from conftest import paper_model
+from conftest import paper_model, random_piecewise_monotone
 from scipy.optimize import minimize
 
-from pysim.core.model import HysteresisModel
-from pysim.identification.identify import IdentificationError, identify, regressors
+from pysim.core.model import HysteresisModel, eq13_thresholds
+from pysim.identification.identify import (
+    IdentificationError,
+    best_clamped_state,
+    identify,
+    operator_bounds,
+    regressors,
+)
 
 
 def exciting_input(n=40001, lo=0.0, hi=150.0):
@@ -118,15 +124,131 @@ def test_too_few_samples_and_constant_input_are_refused():
         identify(np.ones(100), np.arange(100.0))
 
 
-def test_auto_warmup_starts_once_both_ends_were_visited():
+def test_numeric_warmup_leaves_samples_out_and_starts_demagnetised():
     truth = scaled_paper_model()
     v = exciting_input()
+    v = np.concatenate((v, np.linspace(v[-1], 0.0, 400)))      # back to the bottom at the end
     rng = np.random.default_rng(0)
-    # unknown history: a random initial operator state
     y = truth.simulate(v, rng.uniform(0, 60, truth.n_operators))
-    result = identify(v, y)
-    assert result.warmup_samples == int(np.argmax(v >= 150 - 0.45 * 15))
+    start = int(np.argmax(v >= 150 - 0.45 * 15))       # the input has been at both ends by then
+    result = identify(v, y, warmup=start)
+    assert result.warmup_samples == start and result.fit_slice.start == start
+    assert not result.initial_state_estimated
+    np.testing.assert_allclose(result.model.simulate(v), result.prediction_um, atol=1e-9)   # demagnetised
     assert result.errors["max_error_pct"] < 1e-8
+
+
+def multisine(n, lo=0.0, hi=150.0, parts=((1.0, 3.2, 0.3), (0.6, 7.7, 1.0), (0.4, 17.1, 2.0), (0.3, 41.3, 0.1))):
+    """A multisine normalised to [lo, hi]: it touches each end once, late in the record."""
+    k = np.arange(n)
+    s = sum(a * np.sin(2 * np.pi * c * k / n + p) for a, c, p in parts)
+    return lo + (hi - lo) * (s - s.min()) / np.ptp(s)
+
+
+def history_state(truth, rng):
+    """Operator state left by a random history (30 random extremes) before the record."""
+    _, state = truth.simulate(random_piecewise_monotone(rng, 30, 0.0, 150.0), return_state=True)
+    return state
+
+
+def test_unknown_history_is_estimated_so_every_sample_is_fitted():
+    truth = scaled_paper_model()
+    v = multisine(20000)
+    assert min(np.argmin(v), np.argmax(v)) > 0.3 * v.size     # a warm-up would lose a third of the record
+    state = history_state(truth, np.random.default_rng(7))
+    y = truth.simulate(v, state)
+    result = identify(v, y)
+    assert result.warmup_samples == 0 and result.fit_slice == slice(0, v.size)
+    assert result.initial_state_estimated
+    # the fit explains every sample (noise free: to far below any sensor's resolution)
+    assert result.errors["rms_error_pct"] < 1e-3
+    np.testing.assert_allclose(result.model.weights[1:], truth.weights[1:], rtol=2e-3)
+    # the model and the estimated state reproduce the prediction (an independent simulation)
+    np.testing.assert_allclose(result.model.simulate(v, result.initial_state), result.prediction_um, atol=1e-9)
+    # starting demagnetised instead is far worse on the same samples
+    assert identify(v, y, warmup=0).objective > 1e4 * result.objective
+
+
+def test_with_noise_and_unknown_history_the_residual_is_the_noise():
+    truth = scaled_paper_model()
+    v = multisine(20000)
+    rng = np.random.default_rng(11)
+    y = truth.simulate(v, history_state(truth, rng)) + rng.normal(0, 0.05, v.size)
+    result = identify(v, y)
+    rms_um = np.sqrt(result.objective / v.size)
+    assert rms_um == pytest.approx(0.05, rel=0.03)
+    assert result.model.check_invertibility().invertible
+
+
+def test_best_clamped_state_matches_a_brute_force_search(rng):
+    for _ in range(20):
+        n = int(rng.integers(1, 40))
+        low = rng.uniform(-1, 1, n)
+        high = low + rng.uniform(0, 1, n) * (rng.uniform() < 0.8)
+        target = rng.normal(0, 1, n)
+        s_low, s_high = -1.5, 1.5
+        found = best_clamped_state(target, low, high, s_low, s_high)
+        grid = np.linspace(s_low, s_high, 30001)
+        cost = ((target[None, :] - np.clip(grid[:, None], low, high)) ** 2).sum(axis=1)
+
+        def value(s):
+            return float(((target - np.clip(s, low, high)) ** 2).sum())
+
+        assert s_low <= found <= s_high
+        assert value(found) <= cost.min() + 1e-12
+
+
+def test_operator_bounds_bracket_every_admissible_start(rng):
+    r = eq13_thresholds(6, 10.0)
+    v = random_piecewise_monotone(rng, 12, 0.0, 10.0)
+    low, high = operator_bounds(v, r, "osp", 0.0)
+    probe = HysteresisModel(0.0, 0.0, tuple(r), tuple(np.zeros(6)), voltage_range_V=(0.0, 10.0))
+    for _ in range(5):
+        state = rng.uniform(low[0], high[0])
+        _, ops = probe.simulate(v, state, return_operators=True)
+        np.testing.assert_array_equal(ops, np.clip(state, low, high))
+
+
+def test_operators_the_record_does_not_excite_are_reported_and_tied_to_their_neighbour():
+    # equal weights (a uniform density): the tie is true, so the fit stays exact
+    r = eq13_thresholds(10, 100.0)
+    truth = HysteresisModel(0.0, 0.3, tuple(r), (0.0,) + (0.05,) * 9, voltage_range_V=(0.0, 100.0))
+    t = np.linspace(0, 1, 8000)
+    # one full-range sweep, then small cycles only: the large thresholds move just once or never
+    v = np.concatenate((np.linspace(0, 100, 500), np.linspace(100, 50, 500), 50 + 20 * np.sin(2 * np.pi * 12 * t)))
+    y = truth.simulate(v)
+    result = identify(v, y, model="cpi")
+    unexcited = result.not_identifiable_operators
+    assert unexcited, result.operator_travel_V
+    spacing = r[1] - r[0]
+    for i in unexcited:
+        assert result.operator_travel_V[i] < 0.5 * spacing
+        assert result.model.weights[i] == pytest.approx(result.model.weights[result.merged_into[i]], rel=1e-12)
+    excited = [i for i in range(1, 10) if i not in unexcited]
+    assert all(result.operator_travel_V[i] >= 0.5 * spacing for i in excited)
+    assert result.errors["max_error_pct"] < 1e-6
+    assert result.identifiability()["not_identifiable_operators"] == [i + 1 for i in unexcited]
+
+
+@pytest.mark.parametrize("v, missing", [
+    (np.linspace(0, 100, 500), "rise and fall"),
+    (np.concatenate((np.linspace(0, 100, 300), np.linspace(100, 99.5, 300))), "no operator is excited"),
+])
+def test_a_record_without_the_needed_excitation_gets_one_message(v, missing):
+    with pytest.raises(IdentificationError, match=missing):
+        identify(v, 0.3 * v, n_operators=10)
+
+
+def test_nonnegative_extra_regressors_stay_nonnegative():
+    truth = scaled_paper_model()
+    v = exciting_input(8001)
+    ramp = np.linspace(0, 1, v.size)
+    y = truth.simulate(v) - 3.0 * ramp           # the best coefficient would be -3
+    free = identify(v, y, extra_regressors={"ramp": ramp})
+    held = identify(v, y, extra_regressors={"ramp": ramp}, extra_nonnegative=["ramp"])
+    assert free.extra_coefficients["ramp"] == pytest.approx(-3.0, rel=1e-6)
+    assert held.extra_coefficients["ramp"] == pytest.approx(0.0, abs=1e-9) and held.constraints_active
+    assert held.objective >= free.objective
 
 
 def test_one_sided_and_classical_play_fits_are_the_same_model_class():

@@ -1,9 +1,10 @@
 """Identification of MPI/CPI models from measured voltage and displacement.
 
-With the thresholds fixed (eq. 13), the model output is linear in the
-parameters ``θ = (a1, a2, b_1 … b_n, offset)``::
+With the thresholds fixed (eq. 13, over the range of the samples fitted) and
+the operator state at the start of the record fixed, the model output is
+linear in the parameters ``θ = (a1, a2, b_1 … b_n, offset)``::
 
-    y_k = a1 u_k³ + a2 u_k + Σ_i b_i F_{r_i}[u]_k + offset
+    y_k = a1 u_k³ + a2 u_k + Σ_i b_i F_{r_i}[u; s_i]_k + offset
 
 so the least-squares fit is a linear least-squares problem.  Keeping the
 identified model invertible adds linear inequality constraints (the slope along
@@ -14,14 +15,33 @@ programming → non-negative least squares (``scipy.optimize.nnls``): a finite
 active-set method that ends at the global optimum, unlike the particle swarm
 of the paper.
 
+**The unknown initial state.**  A record does not start from the demagnetised
+state: the actuator had a history.  Every operator's state before the first
+sample is a number ``s_i`` in its admissible band (``u_0 − r_i ≤ s_i ≤ u_0``
+for one-sided play, ``u_0 − r_i ≤ s_i ≤ u_0 + r_i`` for classical play).  An
+operator's output is a composition of clamps of that number, so at every sample
+it is ``clamp(s_i, L_ik, U_ik)``, where ``L`` and ``U`` are the outputs started
+from the lowest and the highest admissible state (they meet once the input has
+wiped the initial state out).  By default (``warmup="auto"``) the states are
+estimated with the weights, by alternating exact steps: the LSI fit of the
+weights for fixed states, then for each operator the exact minimiser of the
+piecewise-quadratic error over its state for fixed weights (a sweep over the
+sorted breakpoints ``L_ik``, ``U_ik``).  Every step lowers the error, and the
+best of three starts (demagnetised, lowest and highest states) is kept.  So
+every sample is fitted: no warm-up has to be left out, whatever the input.
+
+**Operators the record does not excite.**  An operator moves only when the
+input travels more than its threshold in one direction.  Its *travel* over the
+fitted samples (where its state is fixed by the input) measures how much the
+record says about its weight.  An operator whose travel is below half a
+threshold spacing cannot be told apart from the offset: its weight is tied to
+its nearest lower excited operator (equal weight density, ``b_i / Δr_i``), the
+merge is reported (``not_identifiable_operators``), and the model keeps the
+smooth density instead of an arbitrary value.
+
 An operator with ``r = 0`` equals its input (``F_0[u] = u``), so its weight
 cannot be told apart from ``a2``: its column is left out and ``b = 0`` is
 reported for it, the sum living in ``a2``.
-
-The first samples of a record depend on the actuator's unknown history.  Once
-the input has visited both ends of its range every operator's state is fixed
-by the data (wiping-out property), so by default the fit starts there
-(``warmup="auto"``).
 """
 from __future__ import annotations
 
@@ -30,12 +50,19 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.linalg import LinAlgError
 from scipy.linalg import cholesky, solve_triangular
-from scipy.optimize import nnls
+from scipy.optimize import least_squares, nnls
 
 from pysim.core.invertibility import branch_cases, square_range
 from pysim.core.metrics import error_measures
 from pysim.core.model import HysteresisModel, eq13_thresholds
 from pysim.identification.errors import IdentificationError
+
+#: An operator whose travel over the fitted samples is below this fraction of
+#: the threshold spacing is not identifiable (its weight is tied to a neighbour).
+MIN_TRAVEL_FRACTION = 0.5
+#: Alternating steps of the initial-state estimation (per start).
+STATE_ITERATIONS = 12
+_BIG = 1e12
 
 
 @dataclass
@@ -47,17 +74,37 @@ class IdentificationResult:
     model : HysteresisModel
         The identified model (physical units).
     warmup_samples : int
-        Samples at the start left out of the fit.
+        Samples at the start left out of the fit (0 with ``warmup="auto"``:
+        the initial state is estimated instead).
     fit_slice : slice
-        Samples the fit used (after the warm-up).
+        Samples the fit used.
     prediction_um : ndarray
-        Model output over the whole record, from the demagnetised state.
+        Model output over the whole record, from ``initial_state``.
     errors : dict
         ``max_error_pct``, ``rms_error_pct``, ``mean_error_pct`` on the fit samples.
     constraints_active : bool
-        Whether the invertibility constraints changed the unconstrained optimum.
+        Whether the invertibility constraints (or sign constraints on extra
+        regressors) changed the unconstrained optimum.
     extra_coefficients : dict
         Coefficients of the extra regressors passed to :func:`identify`.
+    objective : float
+        Sum of squared errors on the fit samples, µm².
+    initial_state : ndarray
+        Operator state before the first sample (V of the shifted input):
+        estimated with ``warmup="auto"``, demagnetised with a numeric warm-up.
+        ``model.simulate(voltage_V, initial_state)`` reproduces ``prediction_um``.
+    initial_state_estimated : bool
+    not_identifiable_operators : tuple of int
+        0-based indices of operators the fitted samples do not excite; their
+        weight is tied to ``merged_into[i]`` (equal weight density).
+    merged_into : dict
+        Operator index → index of the operator whose density it shares.
+    operator_travel_V : ndarray
+        Travel of every operator over the fitted samples where its state is
+        fixed by the input, V.
+    condition_number : float
+        2-norm condition number of the column-scaled design matrix on the
+        fitted samples (large: weakly determined parameters).
     """
 
     model: HysteresisModel
@@ -68,6 +115,12 @@ class IdentificationResult:
     constraints_active: bool
     extra_coefficients: dict = field(default_factory=dict)
     objective: float = float("nan")
+    initial_state: np.ndarray = None
+    initial_state_estimated: bool = False
+    not_identifiable_operators: tuple = ()
+    merged_into: dict = field(default_factory=dict)
+    operator_travel_V: np.ndarray = None
+    condition_number: float = float("nan")
 
     def parameters(self) -> dict:
         """The model's parameters as plain numbers (for JSON)."""
@@ -80,6 +133,26 @@ class IdentificationResult:
             **{f"extra_{k}": v for k, v in self.extra_coefficients.items()},
         }
 
+    def identifiability(self) -> dict:
+        """What the record says about the model (plain numbers, for JSON).
+
+        Returns
+        -------
+        dict with ``initial_state_V`` (the operator state before the first
+        sample), ``initial_state_estimated``, ``not_identifiable_operators``
+        (1-based operator numbers, as in the printed table), their thresholds,
+        ``operator_travel_V`` and ``condition_number``.
+        """
+        r = self.model.thresholds_V
+        return {
+            "initial_state_V": [float(x) for x in self.initial_state],
+            "initial_state_estimated": bool(self.initial_state_estimated),
+            "not_identifiable_operators": [i + 1 for i in self.not_identifiable_operators],
+            "not_identifiable_thresholds_V": [float(r[i]) for i in self.not_identifiable_operators],
+            "operator_travel_V": [float(x) for x in self.operator_travel_V],
+            "condition_number": float(self.condition_number),
+        }
+
 
 def auto_warmup(voltage_V, widest_band_V: float = None) -> int:
     """First sample by which the input has been at both ends of its range.
@@ -90,6 +163,11 @@ def auto_warmup(voltage_V, widest_band_V: float = None) -> int:
     chosen just inside that limit, so from the returned sample on the model's
     output no longer depends on the history before the record; without it the
     ends must be reached to 0.5 % of the span.
+
+    Examples
+    --------
+    >>> auto_warmup([5.0, 0.0, 3.0, 10.0, 4.0])
+    3
     """
     v = np.asarray(voltage_V, dtype=float)
     lo, hi = float(v.min()), float(v.max())
@@ -100,8 +178,38 @@ def auto_warmup(voltage_V, widest_band_V: float = None) -> int:
     return max(first_low, first_high)
 
 
-def regressors(voltage_V, thresholds_V, operator: str, input_offset_V: float, cubic: bool):
+def operator_bounds(voltage_V, thresholds_V, operator: str, input_offset_V: float):
+    """Operator outputs started from the lowest and the highest admissible state.
+
+    Returns
+    -------
+    low, high : ndarray (N, n)
+        For any admissible initial state ``s``, operator ``i`` outputs
+        ``clip(s_i, low[:, i], high[:, i])`` at every sample; ``low[0]`` and
+        ``high[0]`` are the admissible band of the state itself.
+
+    Examples
+    --------
+    >>> low, high = operator_bounds([5.0, 10.0, 0.0], [0.0, 4.0], "osp", 0.0)
+    >>> low[:, 1].tolist(), high[:, 1].tolist()
+    ([1.0, 6.0, 0.0], [5.0, 6.0, 0.0])
+    """
+    r = np.asarray(thresholds_V, dtype=float)
+    probe = HysteresisModel(0.0, 0.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
+                            input_offset_V=input_offset_V, name="probe")
+    _, low = probe.simulate(voltage_V, np.full(r.size, -_BIG), return_operators=True)
+    _, high = probe.simulate(voltage_V, np.full(r.size, _BIG), return_operators=True)
+    return low, high
+
+
+def regressors(voltage_V, thresholds_V, operator: str, input_offset_V: float, cubic: bool,
+               initial_state=None):
     """Design matrix of the linear-in-parameters model.
+
+    Parameters
+    ----------
+    initial_state : array_like, optional
+        Operator state before the first sample (default: demagnetised).
 
     Returns
     -------
@@ -109,12 +217,18 @@ def regressors(voltage_V, thresholds_V, operator: str, input_offset_V: float, cu
         ``[u³ (if cubic), u, F_{r_i}[u] for r_i > 0 ..., 1]``.
     operator_columns : list of int
         Index of each operator's column, or -1 for r = 0 operators (merged into a2).
+
+    Examples
+    --------
+    >>> A, columns = regressors([0.0, 2.0, 1.0], [0.0, 0.5], "osp", 0.0, cubic=False)
+    >>> A.tolist(), columns
+    ([[0.0, 0.0, 1.0], [2.0, 1.5, 1.0], [1.0, 1.0, 1.0]], [-1, 1])
     """
     r = np.asarray(thresholds_V, dtype=float)
     # only the operator outputs are used: zero weights; simulate ignores the voltage range
     probe = HysteresisModel(0.0, 0.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
                             input_offset_V=input_offset_V, name="probe")
-    _, operators = probe.simulate(voltage_V, return_operators=True)
+    _, operators = probe.simulate(voltage_V, initial_state, return_operators=True)
     u = np.asarray(voltage_V, dtype=float) - input_offset_V
     cols = ([u**3] if cubic else []) + [u]
     operator_columns = []
@@ -129,16 +243,21 @@ def regressors(voltage_V, thresholds_V, operator: str, input_offset_V: float, cu
 
 
 def _invertibility_rows(template: HysteresisModel, n_columns: int, cubic: bool,
-                        operator_columns, margin: float):
-    """Rows G, h with G θ >= h  <=>  slope >= margin on every branch case."""
+                        operator_columns, margin: float, operator_factors=None):
+    """Rows G, h with G θ >= h  <=>  slope >= margin on every branch case.
+
+    ``operator_factors[i]`` is operator i's weight in units of its column's
+    coefficient (1 unless merged with others into one column).
+    """
     a2_col = 1 if cubic else 0
+    factors = np.ones(len(operator_columns)) if operator_factors is None else operator_factors
     rows, rhs = [], []
     for case in branch_cases(template):
         base = np.zeros(n_columns)
         base[a2_col] = 1.0
         for i in case.active:
             if operator_columns[i] >= 0:
-                base[operator_columns[i]] = 1.0
+                base[operator_columns[i]] += factors[i]
         t_values = square_range(case.u_from, case.u_to) if cubic else (0.0,)
         for t in set(t_values):
             row = base.copy()
@@ -169,24 +288,36 @@ def _triangular_factor(A, y):
         return R, Q.T @ y
 
 
-def solve_lsi(A, y, G, h):
+def solve_lsi(A, y, G, h, names=None):
     """min ||A θ − y||  subject to  G θ >= h  (Lawson-Hanson, exact).
 
-    Returns (θ, constraints_active).  Raises IdentificationError if the
-    constraints cannot all hold.
+    Returns (θ, constraints_active, condition_number).  Raises
+    IdentificationError if the columns are linearly dependent (naming them when
+    ``names`` are given) or the constraints cannot all hold.
+
+    Examples
+    --------
+    >>> A = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    >>> theta, active, _ = solve_lsi(A, np.array([1.0, -1.0, 0.0]), np.array([[0.0, 1.0]]), np.array([0.0]))
+    >>> np.round(theta, 6).tolist(), active
+    ([0.5, 0.0], True)
     """
     scale = np.linalg.norm(A, axis=0)
     scale[scale == 0] = 1.0
     R, c = _triangular_factor(A / scale, y)
     diagonal = np.abs(np.diag(R))
     if np.min(diagonal) <= 1e-10 * np.max(diagonal):
+        which = int(np.argmin(diagonal))
+        what = f" ({names[which]} is a combination of the others)" if names is not None else ""
         raise IdentificationError(
-            "the regressors are linearly dependent: the input does not excite every operator "
+            "the regressors are linearly dependent" + what + ": the input does not excite every operator "
             "(too few distinct input levels or thresholds beyond the input range)")
+    singular = np.linalg.svd(R, compute_uv=False)
+    condition = float(singular[0] / singular[-1]) if singular[-1] > 0 else float("inf")
     theta_s = solve_triangular(R, c, lower=False)
     Gs = G / scale
     if G.size == 0 or np.all(Gs @ theta_s >= h - 1e-12 * np.maximum(1.0, np.abs(h))):
-        return theta_s / scale, False
+        return theta_s / scale, False, condition
     # LSI -> LDP: z = R θ - c, constraint (G R^-1) z >= h - G R^-1 c
     E = solve_triangular(R, Gs.T, trans="T", lower=False).T
     f = h - E @ c
@@ -200,13 +331,122 @@ def solve_lsi(A, y, G, h):
         raise IdentificationError("no invertible model satisfies the slope constraints")
     z = -residual[:p] / residual[-1]
     theta_s = solve_triangular(R, z + c, lower=False)
-    return theta_s / scale, True
+    return theta_s / scale, True, condition
+
+
+def best_clamped_state(target, low, high, s_low: float, s_high: float) -> float:
+    """The ``s`` in ``[s_low, s_high]`` minimising ``Σ (target − clip(s, low, high))²`` exactly.
+
+    The error is a quadratic in ``s`` between neighbouring breakpoints (the
+    sorted ``low`` and ``high`` values); every piece's minimiser is found from
+    cumulative sums, so the cost is that of a sort.
+
+    Examples
+    --------
+    >>> best_clamped_state(np.array([0.3, 0.5]), np.zeros(2), np.ones(2), 0.0, 1.0)
+    0.4
+    """
+    t, L, U = (np.asarray(x, dtype=float) for x in (target, low, high))
+    if t.size == 0:
+        return float(s_low)
+    knots = np.unique(np.concatenate((L, U, [s_low, s_high])))
+    knots = knots[(knots >= s_low) & (knots <= s_high)]
+    if knots.size < 2:
+        return float(s_low)
+    a, b = knots[:-1], knots[1:]
+    mid = 0.5 * (a + b)
+    # rows with L > s contribute (t - L)², rows with U < s contribute (t - U)², the rest (t - s)²
+    order_l = np.argsort(L)
+    Ls, tl = L[order_l], t[order_l]
+    el = (tl - Ls) ** 2
+
+    def suffix(x):
+        return np.concatenate((np.cumsum(x[::-1])[::-1], [0.0]))
+
+    def prefix(x):
+        return np.concatenate(([0.0], np.cumsum(x)))
+
+    above = np.searchsorted(Ls, mid, side="right")           # first index with L > mid
+    e_above, t_above, t2_above = suffix(el)[above], suffix(tl)[above], suffix(tl**2)[above]
+    n_above = t.size - above
+    order_u = np.argsort(U)
+    Us, tu = U[order_u], t[order_u]
+    below = np.searchsorted(Us, mid, side="left")            # rows with U < mid
+    e_below, t_below, t2_below = prefix((tu - Us) ** 2)[below], prefix(tu)[below], prefix(tu**2)[below]
+    m = t.size - n_above - below
+    S = t.sum() - t_above - t_below
+    Q = (t**2).sum() - t2_above - t2_below
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s_star = np.where(m > 0, S / np.maximum(m, 1), a)
+    s_star = np.clip(s_star, a, b)
+    value = e_above + e_below + m * s_star**2 - 2.0 * S * s_star + Q
+    return float(s_star[int(np.argmin(value))])
+
+
+def first_reversal(voltage_V) -> int:
+    """Index of the first sample after which the input moves against its first direction
+    (the length of the record if it never does)."""
+    dv = np.diff(np.asarray(voltage_V, dtype=float))
+    moves = np.flatnonzero(dv != 0)
+    if moves.size == 0:
+        return len(voltage_V)
+    first = np.sign(dv[moves[0]])
+    against = moves[np.sign(dv[moves]) == -first]
+    return int(against[0]) if against.size else len(voltage_V)
+
+
+def operator_travel(low, high, rows: slice, voltage_V=None) -> np.ndarray:
+    """Travel of every operator (V) over ``rows`` where its state no longer
+    depends on the initial state (``low == high``), counted from the input's
+    first reversal in ``rows`` (on the first monotone run an operator only
+    follows the input, which the linear term already does)."""
+    lo, hi = low[rows], high[rows]
+    fixed = np.isclose(lo, hi, rtol=0.0, atol=1e-9 * max(1.0, float(np.max(np.abs(hi)))))
+    steps = np.abs(np.diff(lo, axis=0)) * (fixed[1:] & fixed[:-1])
+    if voltage_V is not None:
+        steps[: first_reversal(np.asarray(voltage_V)[rows])] = 0.0
+    return steps.sum(axis=0)
+
+
+def _merge_plan(thresholds, travel, span):
+    """Which operators are fitted on their own and which share a neighbour's
+    weight density.  Returns (anchor, factor): operator i's weight is
+    ``factor[i] × θ[anchor[i]]`` (anchor -1: no weight, r = 0 or nothing to tie to)."""
+    r = np.asarray(thresholds, dtype=float)
+    n = r.size
+    spacing = np.diff(np.concatenate(([0.0], r)))
+    typical = span / max(n, 1) if n else span
+    spacing = np.where(spacing > 0, spacing, typical)
+    anchor = np.full(n, -1)
+    factor = np.ones(n)
+    last = -1
+    for i in range(n):
+        if r[i] == 0.0:
+            continue
+        if travel[i] >= MIN_TRAVEL_FRACTION * spacing[i]:
+            anchor[i], last = i, i
+        elif last >= 0:
+            anchor[i], factor[i] = last, spacing[i] / spacing[last]
+    return anchor, factor
+
+
+def _reversal_check(v, rows, where):
+    """One message when the input in ``rows`` never changes direction."""
+    x = v[rows]
+    dv = np.diff(x)
+    tol = 1e-9 * max(1.0, float(np.max(np.abs(x))))
+    if not (np.any(dv > tol) and np.any(dv < -tol)):
+        sense = "rises" if np.any(dv > tol) else "falls"
+        raise IdentificationError(
+            f"the input only {sense} over samples {where}: hysteresis needs the input to rise and fall "
+            "(record at least one full cycle across the range)")
 
 
 def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = "mpi",
              operator: str = "osp", thresholds_V=None, warmup="auto", fit_slice: slice = None,
-             min_slope_fraction: float = 0.01, extra_regressors: dict = None,
-             column_transform=None, name: str = None, description: str = "") -> IdentificationResult:
+             min_slope_fraction: float = 0.01, extra_regressors: dict = None, extra_nonnegative=(),
+             column_transform=None, initial_state=None, merge_unexcited: bool = True, name: str = None,
+             description: str = "") -> IdentificationResult:
     """Fit an MPI or CPI model to a measured record.
 
     Parameters
@@ -214,18 +454,22 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     voltage_V, displacement_um : array_like
         The record (same length).
     n_operators : int
-        Number of operators n (thresholds from eq. 13 unless given).
+        Number of operators n (thresholds from eq. 13 over the range of the
+        fitted samples unless given).
     model : {"mpi", "cpi"}
         CPI forces a1 = 0.
     operator : {"osp", "play"}
-        Operator kind.  The input is shifted to the bottom of the record's range
-        (``input_offset_V``) for both kinds.
+        Operator kind.  The input is shifted to the bottom of the fitted
+        samples' range (``input_offset_V``) for both kinds.
     thresholds_V : array_like, optional
         Thresholds r_i (V, of the shifted input) instead of eq. 13.
     warmup : "auto" or int
-        Samples left out at the start (see :func:`auto_warmup`).
+        ``"auto"``: every sample is fitted and the operator state before the
+        first sample is estimated with the weights (see the module notes).
+        An int: that many samples at the start are left out and the model
+        starts demagnetised.
     fit_slice : slice, optional
-        Fit only on these samples (e.g. a training part); the warm-up still applies.
+        Fit only on these samples (e.g. a training part).
     min_slope_fraction : float
         Invertibility margin: the slope along every branch stays above this
         fraction of the record's mean gain (displacement span / voltage span).
@@ -233,78 +477,338 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     extra_regressors : dict of name -> array, optional
         Further columns that enter linearly (e.g. creep modes); their fitted
         coefficients come back in ``extra_coefficients``.
+    extra_nonnegative : iterable of str
+        Names of extra regressors whose coefficient is constrained to be >= 0.
     column_transform : callable, optional
         Linear map applied to every column of the hysteresis model's design
         matrix (an (N, p) array in, the same shape out), for models whose output
         passes through a linear stage (dynamics, delay); ``prediction_um`` is
         then that model's output.  The invertibility constraints still apply
-        to the hysteresis parameters.
+        to the hysteresis parameters.  With ``warmup="auto"`` the initial state
+        is estimated by the fit without the transform.
+    initial_state : array_like, optional
+        A fixed operator state before the first sample (V of the shifted
+        input) instead of estimating one.
+    merge_unexcited : bool
+        Tie the weight of operators the fitted samples do not excite to their
+        lower neighbour's density (default) instead of fitting it freely.
     name, description : str
         Stored in the model.
+
+    Returns
+    -------
+    IdentificationResult
+
+    Raises
+    ------
+    IdentificationError
+        With one message naming what the record lacks (a constant or
+        one-directional input, too few samples, no excited operator).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pysim.core.model import HysteresisModel, eq13_thresholds
+    >>> r = eq13_thresholds(4, 100.0)
+    >>> truth = HysteresisModel(0.0, 0.4, tuple(r), (0.0, 0.05, 0.05, 0.05), voltage_range_V=(0.0, 100.0))
+    >>> v = 50 + 50 * np.sin(np.linspace(0, 6 * np.pi, 3000))
+    >>> y = truth.simulate(v, [40.0, 30.0, 20.0, 10.0])     # an unknown history
+    >>> fit = identify(v, y, model="cpi", n_operators=4)
+    >>> bool(fit.errors["max_error_pct"] < 1e-6), fit.warmup_samples
+    (True, 0)
     """
     if model not in ("mpi", "cpi"):
         raise IdentificationError(f"model must be 'mpi' or 'cpi', got {model!r}")
+    if not (warmup == "auto" or (isinstance(warmup, (int, np.integer)) and warmup >= 0)):
+        raise IdentificationError(f"warmup must be 'auto' or a whole number of samples >= 0, got {warmup!r}")
     v = np.asarray(voltage_V, dtype=float).ravel()
     y = np.asarray(displacement_um, dtype=float).ravel()
     if v.shape != y.shape:
         raise IdentificationError(f"{v.size} voltage samples but {y.size} displacement samples")
+    if v.size == 0:
+        raise IdentificationError("the record is empty")
     if not (np.all(np.isfinite(v)) and np.all(np.isfinite(y))):
         raise IdentificationError("the record holds NaN or infinite values")
-    lo, hi = float(v.min()), float(v.max())
+    window = fit_slice or slice(0, v.size)
+    first, stop, _ = window.indices(v.size)
+    start = 0 if warmup == "auto" else int(warmup)
+    first = max(first, start)
+    if stop - first < 2:
+        raise IdentificationError(f"{max(stop - first, 0)} samples to fit (after a warm-up of {start})")
+    rows = slice(first, stop)
+    lo, hi = float(v[rows].min()), float(v[rows].max())
     if not hi > lo:
-        raise IdentificationError("the voltage is constant: nothing to identify")
+        raise IdentificationError(f"the voltage is constant over samples {first}..{stop - 1}: nothing to identify")
     # u = v - lo for both kinds: the cubic a1 u^3 about the bottom of the range
     # is what makes loops asymmetric (about the centre it would be odd-symmetric)
     input_offset = lo
     r = (eq13_thresholds(n_operators, hi - lo, operator) if thresholds_V is None
          else np.asarray(thresholds_V, dtype=float))
     cubic = model == "mpi"
-    A, operator_columns = regressors(v, r, operator, input_offset, cubic)
-    if column_transform is not None:
-        A = np.asarray(column_transform(A), dtype=float)
     extras = dict(extra_regressors or {})
     for key, column in extras.items():
         column = np.asarray(column, dtype=float).ravel()
         if column.shape != v.shape:
             raise IdentificationError(f"extra regressor {key!r} has {column.size} samples, not {v.size}")
-        A = np.column_stack([A, column])
-    n_base = A.shape[1] - len(extras)
-
-    widest = float(np.max(r, initial=0.0)) * (2.0 if operator == "play" else 1.0)
-    start = auto_warmup(v, widest) if warmup == "auto" else int(warmup)
-    window = fit_slice or slice(0, v.size)
-    first, stop, _ = window.indices(v.size)
-    first = max(first, start)
-    n_params = A.shape[1]
-    if stop - first < n_params + 1:
+        extras[key] = column
+    unknown = set(extra_nonnegative) - set(extras)
+    if unknown:
+        raise IdentificationError(f"extra_nonnegative names no extra regressor: {sorted(unknown)}")
+    n_params_hint = (2 if cubic else 1) + int(np.count_nonzero(r)) + 1 + len(extras)
+    if stop - first < n_params_hint + 1:
         raise IdentificationError(
-            f"{stop - first} samples to fit (after a warm-up of {start}) but the model has {n_params} "
-            f"parameters: need at least {n_params + 1}")
+            f"{stop - first} samples to fit (after a warm-up of {start}) but the model has {n_params_hint} "
+            f"parameters: need at least {n_params_hint + 1}")
+    _reversal_check(v, rows, f"{first}..{stop - 1}")
 
+    u = v - input_offset
+    low, high = operator_bounds(v, r, operator, input_offset)
+    demagnetised = np.clip(np.zeros(r.size), low[0], high[0])
+    estimate = warmup == "auto" and initial_state is None
+    if initial_state is not None:
+        state0 = np.clip(np.asarray(initial_state, dtype=float).ravel(), low[0], high[0])
+        if state0.size != r.size:
+            raise IdentificationError(f"initial_state has {state0.size} entries, not {r.size}")
+    else:
+        state0 = demagnetised
+    travel = operator_travel(low, high, rows, v)
+    if merge_unexcited:
+        anchor, factor = _merge_plan(r, travel, hi - lo)
+    else:
+        anchor = np.where(r > 0, np.arange(r.size), -1)
+        factor = np.ones(r.size)
+    if np.any(r > 0) and not np.any(anchor >= 0):
+        raise IdentificationError(
+            f"no operator is excited over samples {first}..{stop - 1}: the input never travels more than "
+            f"the smallest threshold ({float(np.min(r[r > 0])):.4g} V) in one direction after a reversal; "
+            "record at least one rise and fall over most of the range")
+    own = [i for i in range(r.size) if anchor[i] == i]
+    not_identifiable = tuple(int(i) for i in range(r.size) if r[i] > 0 and anchor[i] != i)
+
+    # column layout: [u^3] u  group_1 … group_m  1  extras
+    n_lin = 2 if cubic else 1
+    operator_columns = [-1] * r.size
+    for j, i in enumerate(own):
+        operator_columns[i] = n_lin + j
+    column_of = {i: n_lin + j for j, i in enumerate(own)}
+    n_hyst = n_lin + len(own) + 1
+    names = (["a1 u³"] if cubic else []) + ["a2 u"] + [f"operator {i + 1} (r = {r[i]:.4g} V)" for i in own] \
+        + ["offset"] + [f"extra {k!r}" for k in extras]
+
+    # Only the window's rows are fitted; the state matters only where an
+    # operator has not yet forgotten it (low < high): the "transient" rows.
+    low_w, high_w, y_w, u_w = low[rows], high[rows], y[rows], u[rows]
+    transient_rows = np.flatnonzero(np.any(high_w - low_w > 0, axis=1))
+    moving = [np.flatnonzero(high_w[:, i] - low_w[:, i] > 0) for i in range(r.size)]
+
+    def design(state, lo_b, hi_b, uu):
+        ops = np.minimum(np.maximum(state, lo_b), hi_b)
+        A = np.empty((uu.size, n_hyst))
+        if cubic:
+            A[:, 0] = uu**3
+        A[:, n_lin - 1] = uu
+        for i in own:
+            A[:, column_of[i]] = ops[:, i]
+        for i in not_identifiable:
+            if anchor[i] >= 0:
+                A[:, column_of[anchor[i]]] += factor[i] * ops[:, i]
+        A[:, n_hyst - 1] = 1.0
+        return A
+
+    effective_columns = [column_of.get(int(anchor[i]), -1) if anchor[i] >= 0 else -1 for i in range(r.size)]
+    n_params = n_hyst + len(extras)
     template = HysteresisModel(0.0, 1.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
                                input_offset_V=input_offset, voltage_range_V=(lo, hi), name="template")
-    mean_gain = float(np.ptp(y[first:stop])) / (hi - lo)
+    mean_gain = float(np.ptp(y[rows])) / (hi - lo)
     if min_slope_fraction >= 0:
-        G, h = _invertibility_rows(template, n_params, cubic, operator_columns,
-                                   min_slope_fraction * mean_gain)
+        G, h = _invertibility_rows(template, n_params, cubic, effective_columns,
+                                   min_slope_fraction * mean_gain, factor)
     else:
         G, h = np.zeros((0, n_params)), np.zeros(0)
-    theta, active = solve_lsi(A[first:stop], y[first:stop], G, h)
+    nonneg = [n_hyst + j for j, key in enumerate(extras) if key in set(extra_nonnegative)]
+    if nonneg:
+        sign_rows = np.zeros((len(nonneg), n_params))
+        sign_rows[np.arange(len(nonneg)), nonneg] = 1.0
+        G, h = np.vstack([G, sign_rows]) if G.size else sign_rows, np.concatenate([h, np.zeros(len(nonneg))])
+    extra_matrix = np.column_stack(list(extras.values())) if extras else np.zeros((v.size, 0))
+    extra_w = extra_matrix[rows]
+
+    def solve(state):
+        A = np.column_stack([design(state, low_w, high_w, u_w), extra_w])
+        theta, active, condition = solve_lsi(A, y_w, G, h, names)
+        e = y_w - A @ theta
+        return A, theta, active, condition, float(e @ e)
+
+    def weights_of(theta):
+        return np.array([factor[i] * theta[column_of[anchor[i]]] if anchor[i] >= 0 else 0.0
+                         for i in range(r.size)])
+
+    def refine_state(state, A, theta):
+        """Exact coordinate steps over every operator's state, weights fixed."""
+        state = state.copy()
+        residual = y_w - A @ theta
+        b = weights_of(theta)
+        for i in range(r.size):
+            k = moving[i]
+            if b[i] == 0.0 or k.size == 0:
+                continue
+            L, U = low_w[k, i], high_w[k, i]
+            current = np.minimum(np.maximum(state[i], L), U)
+            target = residual[k] / b[i] + current
+            new = best_clamped_state(target, L, U, low[0, i], high[0, i])
+            residual[k] -= b[i] * (np.minimum(np.maximum(new, L), U) - current)
+            state[i] = new
+        return state
+
+    def polish_state(state, theta):
+        """All states at once for fixed weights (trust region on the
+        piecewise-linear residual of the transient rows)."""
+        b = weights_of(theta)
+        k = transient_rows
+        if k.size == 0 or not np.any(b):
+            return state
+        lt, ht = low_w[k], high_w[k]
+        rest = y_w[k] - np.column_stack([design(np.zeros(r.size), lt, ht, u_w[k]), extra_w[k]]) @ theta
+        rest = rest + (np.minimum(np.maximum(np.zeros(r.size), lt), ht) @ b)
+
+        def residual(s):
+            return np.minimum(np.maximum(s, lt), ht) @ b - rest
+
+        def jacobian(s):
+            return ((lt < s) & (s < ht)) * b
+
+        lower, upper = low[0], high[0]
+        s = np.clip(state, lower, upper)
+        f = residual(s)
+        cost = float(f @ f)
+        damping = 1e-6
+        for _ in range(40):
+            J = jacobian(s)
+            gradient = J.T @ f
+            free = ~(((s <= lower) & (gradient > 0)) | ((s >= upper) & (gradient < 0))) & np.any(J != 0, axis=0)
+            if not np.any(free):
+                break
+            H = J[:, free].T @ J[:, free]
+            H = H + damping * (np.trace(H) / max(H.shape[0], 1) + 1e-300) * np.eye(H.shape[0])
+            try:
+                direction = -np.linalg.solve(H, gradient[free])
+            except LinAlgError:
+                break
+            improved = False
+            for scale in (1.0, 0.5, 0.25, 0.1, 0.03):
+                trial = s.copy()
+                trial[free] = np.clip(s[free] + scale * direction, lower[free], upper[free])
+                f_trial = residual(trial)
+                c_trial = float(f_trial @ f_trial)
+                if c_trial < cost:
+                    s, f, improved = trial, f_trial, True
+                    relative = (cost - c_trial) / max(cost, 1e-300)
+                    cost = c_trial
+                    break
+            if not improved or relative < 1e-8:
+                break
+        return s
+
+    def history_states():
+        """Operator states left by short histories: the input came from far
+        below or above, turned at e2 (and e3), then went to the first sample."""
+        levels = np.linspace(lo, hi, 9) - input_offset
+        probe = HysteresisModel(0.0, 0.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
+                                input_offset_V=0.0, name="probe")
+        found = []
+        for origin in (-_BIG, _BIG):
+            for e2 in levels:
+                found.append(probe.simulate([e2], np.full(r.size, origin), return_state=True)[1])
+                for e3 in levels:
+                    if (e3 - e2) * origin > 0:       # e3 turns back towards the origin's side
+                        found.append(probe.simulate([e2, e3], np.full(r.size, origin), return_state=True)[1])
+        return [np.clip(s, low[0], high[0]) for s in found]
+
+    def screen(states):
+        """Unconstrained least-squares error of each state (Gram matrices:
+        only the transient rows change from one state to the next)."""
+        fixed = np.setdiff1d(np.arange(u_w.size), transient_rows)
+        A0 = np.column_stack([design(states[0], low_w[fixed], high_w[fixed], u_w[fixed]), extra_w[fixed]])
+        gram0, moment0, yy0 = A0.T @ A0, A0.T @ y_w[fixed], float(y_w[fixed] @ y_w[fixed])
+        lt, ht, ut, et, yt = (low_w[transient_rows], high_w[transient_rows], u_w[transient_rows],
+                              extra_w[transient_rows], y_w[transient_rows])
+        yy = yy0 + float(yt @ yt)
+        scores = []
+        for s in states:
+            At = np.column_stack([design(s, lt, ht, ut), et])
+            gram, moment = gram0 + At.T @ At, moment0 + At.T @ yt
+            scale = np.sqrt(np.maximum(np.diag(gram), 1e-300))
+            try:
+                theta = np.linalg.solve(gram / np.outer(scale, scale), moment / scale)
+                scores.append(yy - float(theta @ (moment / scale)))
+            except LinAlgError:
+                scores.append(np.inf)
+        return np.array(scores)
+
+    if estimate and transient_rows.size:
+        candidates = [demagnetised, low[0].copy(), high[0].copy()] + history_states()
+        scores = screen(candidates)
+        order = [int(j) for j in np.argsort(scores)[:3]]
+        starts = [(candidates[j], None) for j in dict.fromkeys(order[:2] + [0])]
+        settled = np.setdiff1d(np.arange(u_w.size), transient_rows)
+        if settled.size >= max(3 * n_params, u_w.size // 10):
+            # weights from the samples whose state the input has fixed, then
+            # the states that fit the transient best for those weights
+            A_s = np.column_stack([design(demagnetised, low_w[settled], high_w[settled], u_w[settled]),
+                                   extra_w[settled]])
+            try:
+                theta_s = solve_lsi(A_s, y_w[settled], G, h, names)[0]
+                state = demagnetised.copy()
+                for _ in range(3):
+                    state = refine_state(state, np.column_stack([design(state, low_w, high_w, u_w), extra_w]),
+                                         theta_s)
+                state = polish_state(state, theta_s)
+                starts.insert(0, (state, theta_s))
+            except IdentificationError:
+                pass
+        best = None
+        for state, _ in starts:
+            A, theta, active, condition, sse = solve(state)
+            for _ in range(STATE_ITERATIONS):
+                candidate = polish_state(refine_state(state, A, theta), theta)
+                A2, theta2, active2, condition2, sse2 = solve(candidate)
+                if sse2 < sse * (1.0 - 1e-4):
+                    state, A, theta, active, condition, sse = candidate, A2, theta2, active2, condition2, sse2
+                else:
+                    break
+            if best is None or sse < best[-1]:
+                best = (state, A, theta, active, condition, sse)
+        state0, _, theta, active, condition, sse = best
+    else:
+        _, theta, active, condition, sse = solve(state0)
+    A = np.column_stack([design(state0, low, high, u), extra_matrix])
+
+    if column_transform is not None:
+        # the state estimated without the stage competes with the demagnetised one
+        best = None
+        for state in ([state0, demagnetised] if estimate else [state0]):
+            hyst = np.asarray(column_transform(design(state, low, high, u)), dtype=float)
+            A_t = np.column_stack([hyst, extra_matrix])
+            theta_t, active_t, condition_t = solve_lsi(A_t[rows], y[rows], G, h, names)
+            e = y[rows] - A_t[rows] @ theta_t
+            if best is None or float(e @ e) < best[-1]:
+                best = (state, A_t, theta_t, active_t, condition_t, float(e @ e))
+        state0, A, theta, active, condition, sse = best
 
     a1 = float(theta[0]) if cubic else 0.0
-    a2 = float(theta[1 if cubic else 0])
-    weights = np.array([theta[c] if c >= 0 else 0.0 for c in operator_columns])
-    offset = float(theta[n_base - 1])
+    a2 = float(theta[n_lin - 1])
+    weights = weights_of(theta)
+    offset = float(theta[n_hyst - 1])
     identified = HysteresisModel(
         a1=a1, a2=a2, thresholds_V=tuple(r), weights_um_per_V=tuple(weights), operator=operator,
         input_offset_V=input_offset, output_offset_um=offset, voltage_range_V=(lo, hi),
         name=name or f"identified_{model}", description=description)
-    extra_coefficients = {key: float(theta[n_base + j]) for j, key in enumerate(extras)}
+    extra_coefficients = {key: float(theta[n_hyst + j]) for j, key in enumerate(extras)}
     prediction = A @ theta
-    residual = y[first:stop] - prediction[first:stop]
-    result = IdentificationResult(
-        model=identified, warmup_samples=start, fit_slice=slice(first, stop),
-        prediction_um=prediction, errors=error_measures(y[first:stop], prediction[first:stop]),
-        constraints_active=active, extra_coefficients=extra_coefficients,
-        objective=float(residual @ residual))
-    return result
+    merged = {int(i): int(anchor[i]) for i in not_identifiable if anchor[i] >= 0}
+    return IdentificationResult(
+        model=identified, warmup_samples=start, fit_slice=rows, prediction_um=prediction,
+        errors=error_measures(y[rows], prediction[rows]), constraints_active=active,
+        extra_coefficients=extra_coefficients, objective=sse, initial_state=np.asarray(state0, dtype=float),
+        initial_state_estimated=bool(estimate), not_identifiable_operators=not_identifiable,
+        merged_into=merged, operator_travel_V=travel, condition_number=condition)

@@ -47,7 +47,8 @@ def register(subparsers) -> None:
     parser.add_argument("--operator", choices=("osp", "play"), default="osp",
                         help="one-sided play (paper, default) or classical play operators")
     parser.add_argument("--warmup", default="auto",
-                        help="samples left out at the start, or 'auto' (until the input has visited both ends)")
+                        help="'auto' (default: fit every sample, the operator state at the start estimated "
+                             "with the weights) or a number of samples to leave out (model starts demagnetised)")
     parser.add_argument("--out", metavar="SPEC", help="write the model spec (a Python file) here")
     parser.add_argument("--name", help="model name (a C identifier; default from the output file name)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
@@ -88,7 +89,10 @@ def run(args) -> int:
                           f"identified from {Path(data.source).name} by pysim identify.\n\n"
                           f"Fit errors (% of measured range, after a warm-up of "
                           f"{chosen.warmup_samples} samples): max {chosen.errors['max_error_pct']:.3f}, "
-                          f"RMS {chosen.errors['rms_error_pct']:.3f}, mean {chosen.errors['mean_error_pct']:.3f}.")
+                          f"RMS {chosen.errors['rms_error_pct']:.3f}, mean {chosen.errors['mean_error_pct']:.3f}"
+                          + (" (from the operator state estimated at the start of the record: "
+                             f"{[round(float(x), 6) for x in chosen.initial_state]} V)"
+                             if chosen.initial_state_estimated else "") + ".")
     if args.json:
         print(json.dumps({
             "model": args.model,
@@ -96,6 +100,7 @@ def run(args) -> int:
             **chosen.errors,
             "warmup_samples": chosen.warmup_samples,
             "constraints_active": chosen.constraints_active,
+            "identifiability": chosen.identifiability(),
             "comparison": {kind: res.errors for kind, res in results.items()},
             "spec": args.out,
         }, indent=2))
@@ -118,6 +123,15 @@ def format_table(chosen, results, source, out) -> str:
     for i, (r, b) in enumerate(zip(m.thresholds_V, m.weights_um_per_V), start=1):
         lines.append(f"  {i:2d}  {r:12.6g}  {b: .6e}")
     inv = m.check_invertibility()
+    if chosen.initial_state_estimated:
+        lines += ["", "  initial operator state (estimated with the weights; no warm-up left out): "
+                  + ", ".join(f"{x:.4g}" for x in chosen.initial_state) + " V"]
+    for i in chosen.not_identifiable_operators:
+        tied = chosen.merged_into.get(i)
+        lines.append(f"  operator {i + 1} (r = {m.thresholds_V[i]:.4g} V): not identifiable from this record "
+                     f"(travel {chosen.operator_travel_V[i]:.3g} V)"
+                     + (f"; weight density tied to operator {tied + 1}" if tied is not None else "; weight 0"))
+    lines += [f"  condition number of the fit: {chosen.condition_number:.3g}"]
     lines += ["", f"  invertibility: {inv.message}", "",
               "  model   max err %   RMS err %   mean err %"]
     for kind, res in results.items():
