@@ -166,9 +166,11 @@ fmi2Status model_accept_input(Instance *inst, fmi2ValueReference vr, double *val
 int model_outputs_hold(const Instance *inst);
 
 /* Computes every output in inst->real for the current inputs from the
- * committed memory, and writes the memory after these inputs into
- * inst->scratch (all MODEL_N_MEMORY values).  Defined with LAYER_HOT: it is
- * the per-step work and belongs inlined into fmi2GetReal and fmi2DoStep. */
+ * committed memory, and brings inst->scratch to the memory after these
+ * inputs (all MODEL_N_MEMORY values; values that the buffer swap leaves
+ * right, like most of the plant's delay line, need not be rewritten).
+ * Defined with LAYER_HOT: it is the per-step work and belongs inlined into
+ * fmi2GetReal and fmi2DoStep. */
 fmi2Status model_update(Instance *inst);
 
 #if defined(__GNUC__) || defined(__clang__)

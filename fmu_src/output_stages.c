@@ -83,11 +83,9 @@ OSTAGE_API const char *ostage_message(int status)
     }
 }
 
-OSTAGE_API size_t ostage_state_size(const OutputStages *s)
+/* State size of a checked spec. */
+static size_t state_size(const OutputStages *s)
 {
-    if (ostage_check(s) != OSTAGE_OK) {
-        return 0;
-    }
     size_t n = 2 * (size_t)s->n_sections;
     if (has_delay(s)) {
         n += 2 + (size_t)s->delay_whole;
@@ -98,11 +96,13 @@ OSTAGE_API size_t ostage_state_size(const OutputStages *s)
     return n;
 }
 
-OSTAGE_API void ostage_init(const OutputStages *s, double h0, double u0, double *state)
+OSTAGE_API size_t ostage_state_size(const OutputStages *s)
 {
-    if (ostage_check(s) != OSTAGE_OK || state == NULL) {
-        return;
-    }
+    return ostage_check(s) == OSTAGE_OK ? state_size(s) : 0;
+}
+
+OSTAGE_API void ostage_rest(const OutputStages *s, double h0, double u0, double *state)
+{
     double g = h0;
     size_t k = 0;
     for (int i = 0; i < s->n_sections; i++) {
@@ -130,9 +130,16 @@ OSTAGE_API void ostage_init(const OutputStages *s, double h0, double u0, double 
     }
 }
 
-/* One sample for a checked spec; out is NULL or equal to state. */
-static double output_unchecked(const OutputStages *s, const double *state, double h,
-                               double u, double t, double *out)
+OSTAGE_API void ostage_init(const OutputStages *s, double h0, double u0, double *state)
+{
+    if (ostage_check(s) != OSTAGE_OK || state == NULL) {
+        return;
+    }
+    ostage_rest(s, h0, u0, state);
+}
+
+OSTAGE_API double ostage_step(const OutputStages *s, const double *state, double h, double u, double t,
+                              double *next)
 {
     size_t k = 0;
     double g = h;
@@ -141,9 +148,9 @@ static double output_unchecked(const OutputStages *s, const double *state, doubl
         const double s1 = state[k];
         const double s2 = state[k + 1];
         const double y = c[0] * g + s1;
-        if (out != NULL) {
-            out[k] = c[1] * g - c[3] * y + s2;
-            out[k + 1] = c[2] * g - c[4] * y;
+        if (next != NULL) {
+            next[k] = c[1] * g - c[3] * y + s2;
+            next[k + 1] = c[2] * g - c[4] * y;
         }
         k += 2;
         g = y;
@@ -153,14 +160,21 @@ static double output_unchecked(const OutputStages *s, const double *state, doubl
         const size_t length = (size_t)s->delay_whole + 1;
         const double stored = state[k];
         /* a corrupted position (set from outside) is reset, never used as an index */
-        size_t pos = (stored >= 0.0 && stored < (double)length) ? (size_t)stored : 0;
+        const size_t pos = (stored >= 0.0 && stored < (double)length) ? (size_t)stored : 0;
+        const size_t following = (pos + 1 == length) ? 0 : pos + 1;
         const double *line = state + k + 1;
         const double older = line[pos];
-        const double newer = (s->delay_whole == 0) ? g : line[(pos + 1) % length];
+        const double newer = (s->delay_whole == 0) ? g : line[following];
         y = (1.0 - s->delay_fraction) * newer + s->delay_fraction * older;
-        if (out != NULL) {
-            out[k + 1 + pos] = g;
-            out[k] = (double)((pos + 1) % length);
+        if (next != NULL) {
+            double *next_line = next + k + 1;
+            if (next != state) {
+                /* the one slot a lagging buffer misses: the one sample k-1 wrote */
+                const size_t last = (pos == 0 ? length : pos) - 1;
+                next_line[last] = line[last];
+            }
+            next_line[pos] = g;
+            next[k] = (double)following;
         }
         k += 1 + length;
     }
@@ -170,12 +184,12 @@ static double output_unchecked(const OutputStages *s, const double *state, doubl
         for (size_t j = 0; j < (size_t)s->n_creep; j++) {
             const double c = s->creep_alpha[j] * state[k + 1 + j] + s->creep_beta[j] * (u + u_prev);
             creep += s->creep_weights[j] * c;
-            if (out != NULL) {
-                out[k + 1 + j] = c;
+            if (next != NULL) {
+                next[k + 1 + j] = c;
             }
         }
-        if (out != NULL) {
-            out[k] = u;
+        if (next != NULL) {
+            next[k] = u;
         }
         y += creep;
     }
@@ -196,13 +210,15 @@ OSTAGE_API double ostage_output(const OutputStages *s, const double *state, doub
         return h;
     }
     if (new_state != NULL && new_state != state) {
-        const size_t n = ostage_state_size(s);
+        /* any array: start from a copy (the plant FMU's double buffer needs
+         * none, see ostage_step) */
+        const size_t n = state_size(s);
         for (size_t i = 0; i < n; i++) {
             new_state[i] = state[i];
         }
-        return output_unchecked(s, new_state, h, u, t, new_state);
+        return ostage_step(s, new_state, h, u, t, new_state);
     }
-    return output_unchecked(s, state, h, u, t, new_state);
+    return ostage_step(s, state, h, u, t, new_state);
 }
 
 OSTAGE_API void ostage_run(const OutputStages *s, size_t n_samples, const double *h,
@@ -213,11 +229,13 @@ OSTAGE_API void ostage_run(const OutputStages *s, size_t n_samples, const double
     }
     const int ok = ostage_check(s) == OSTAGE_OK && state != NULL
                    && (s->n_creep == 0 || u != NULL) && (s->n_drift == 0 || time != NULL);
-    for (size_t k = 0; k < n_samples; k++) {
-        if (!ok) {
-            y[k] = h[k];
-            continue;
+    if (!ok) {
+        for (size_t k = 0; k < n_samples; k++) {
+            y[k] = h[k];                 /* an invalid spec passes h through */
         }
-        y[k] = output_unchecked(s, state, h[k], u ? u[k] : 0.0, time ? time[k] : 0.0, state);
+        return;
+    }
+    for (size_t k = 0; k < n_samples; k++) {
+        y[k] = ostage_step(s, state, h[k], u ? u[k] : 0.0, time ? time[k] : 0.0, state);
     }
 }

@@ -88,9 +88,29 @@ OSTAGE_API double ostage_output(const OutputStages *s, const double *state, doub
                                 double u, double t, double *new_state);
 
 /* ostage_output over a record, committing every sample; state is carried in
- * and out as in hyst_simulate.  time may be NULL when there is no drift. */
+ * and out as in hyst_simulate.  time may be NULL when there is no drift.  The
+ * spec is checked once per call, not per sample. */
 OSTAGE_API void ostage_run(const OutputStages *s, size_t n_samples, const double *h,
                            const double *u, const double *time, double *state, double *y);
+
+/* ------------------------------------------------------------------------
+ * The per-sample path of a caller that checked the spec once (ostage_check,
+ * e.g. the plant FMU at initialisation): nothing is checked again.
+ * ---------------------------------------------------------------------- */
+
+/* ostage_init for a checked spec. */
+OSTAGE_API void ostage_rest(const OutputStages *s, double h0, double u0, double *state);
+
+/* ostage_output for a checked spec, with a state buffer pair instead of a
+ * copy: writes the state after sample k into next (NULL: nothing written, an
+ * output for a tentative input; or state itself: in place).  A separate next
+ * is brought up to date without copying the delay line: it must already hold
+ * state's delay line except at the slot written by sample k-1 -- as the
+ * buffer of a double-buffered caller does, which holds the state before
+ * sample k-1 (or a copy of state).  Every other value of next is written.
+ * Double buffering thus costs O(1) per sample for any delay. */
+OSTAGE_API double ostage_step(const OutputStages *s, const double *state, double h, double u, double t,
+                              double *next);
 
 #ifdef __cplusplus
 }

@@ -3,7 +3,7 @@
  *
  *     h_k = H[voltage]_k            (hyst_output, one sample per step)
  *     displacement_k = h_k          (MPI model), or for an extended model
- *     displacement_k = S[h, u]_k    (ostage_output: the output stages, with
+ *     displacement_k = S[h, u]_k    (ostage_step: the output stages, with
  *                                    u = voltage - input_offset and the time
  *                                    t_k = k * sample period, k committed steps)
  *
@@ -12,6 +12,14 @@
  * other step sizes).  At the first sample they start at rest, as if that
  * sample's input had been held since forever -- what ExtendedModel.simulate
  * does -- so the FMU and the Python model compute the same numbers.
+ *
+ * The stage coefficients are checked once, when the parameters are
+ * (model_prepare: fmi2ExitInitializationMode, fmi2SetFMUstate); an invalid
+ * set is refused there with fmi2Error and a message.  The per-step path
+ * (model_update) checks nothing and copies no stage state: the output for the
+ * pending input is computed from the committed state, the state after it is
+ * written into the tentative buffer, and fmi2DoStep commits it by the
+ * layer's buffer swap (see ModelData in model.h for the delay line).
  */
 #include "fmi2_layer.h"
 
@@ -20,8 +28,9 @@ static const double stage_sections[] = MODEL_SECTIONS;
 static const double stage_creep_alpha[] = MODEL_CREEP_ALPHA;
 static const double stage_creep_beta[] = MODEL_CREEP_BETA;
 
-/* Points the stages at their coefficients: the built-in ones and the
- * parameters creep_weight[] and drift[] in place. */
+/* Points the stages at their coefficients -- the built-in ones and the
+ * parameters creep_weight[] and drift[] in place -- and checks them: the one
+ * check of the stages, which the per-step path relies on. */
 static fmi2Status prepare_stages(Instance *inst)
 {
     OutputStages *s = &inst->model.stages;
@@ -60,11 +69,19 @@ static fmi2Status prepare_stages(Instance *inst)
 
 void model_reset(Instance *inst)
 {
-    (void)inst;                          /* memory all zero: demagnetised, k = 0 */
+    /* memory all zero: demagnetised, k = 0 */
+#ifdef MODEL_HAS_OUTPUT_STAGES
+    inst->model.buffers_paired = 0;
+#else
+    (void)inst;
+#endif
 }
 
 fmi2Status model_prepare(Instance *inst)
 {
+#ifdef MODEL_HAS_OUTPUT_STAGES
+    inst->model.buffers_paired = 0;      /* the committed memory may have been replaced */
+#endif
     if (mpi_check_parameters(inst) != fmi2OK) {
         return fmi2Error;
     }
@@ -105,17 +122,24 @@ LAYER_HOT fmi2Status model_update(Instance *inst)
     const double voltage = inst->real[VR_voltage];
     const double h = hyst_output(&hysteresis, voltage, inst->memory, inst->scratch);
 #ifdef MODEL_HAS_OUTPUT_STAGES
-    const OutputStages *stages = &inst->model.stages;
+    ModelData *model = &inst->model;
     const double k = inst->memory[MODEL_STEP_COUNT];
     const double u = voltage - inst->real[VR_input_offset];
     const double *state = &inst->memory[MODEL_STAGE_MEMORY];
     double *next = &inst->scratch[MODEL_STAGE_MEMORY];
     if (k == 0.0) {
-        /* first sample: the stages at rest at this sample's input */
-        ostage_init(stages, h, u, next);
+        /* first sample: the stages at rest at this sample's input, stepped in
+         * place in the tentative buffer -- whose delay line the committed
+         * buffer does not share */
+        ostage_rest(&model->stages, h, u, next);
         state = next;
+        model->buffers_paired = 0;
+    } else if (!model->buffers_paired) {
+        /* once per run (and after a restored state): pair the buffers */
+        memcpy(next, state, sizeof(double) * MODEL_STAGE_STATE_SIZE);
+        model->buffers_paired = 1;
     }
-    inst->real[VR_displacement] = ostage_output(stages, state, h, u, k * MODEL_SAMPLE_PERIOD, next);
+    inst->real[VR_displacement] = ostage_step(&model->stages, state, h, u, k * MODEL_SAMPLE_PERIOD, next);
     inst->scratch[MODEL_STEP_COUNT] = k + 1.0;
 #else
     inst->real[VR_displacement] = h;

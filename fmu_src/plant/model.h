@@ -23,8 +23,16 @@
 #define MODEL_STEP_COUNT (MODEL_N_OPERATORS + MODEL_STAGE_STATE_SIZE)
 #define MODEL_N_MEMORY (MODEL_STEP_COUNT + 1)
 
+/* The stage state is double-buffered like the rest of the memory, without a
+ * per-step copy of its delay line: once the two buffers are paired, the
+ * tentative one always holds the committed delay line except at the slot the
+ * last committed sample wrote, and ostage_step brings just that slot up to
+ * date.  They are paired by one copy at the second sample and after anything
+ * that replaced the committed memory (model_prepare runs after
+ * fmi2SetFMUstate; model_reset). */
 typedef struct {
     OutputStages stages;         /* built-in coefficients, creep_weight[] and drift[] */
+    int buffers_paired;          /* nonzero: the tentative delay line lags by one slot only */
 } ModelData;
 
 #else
