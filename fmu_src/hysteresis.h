@@ -27,7 +27,7 @@ extern "C" {
 #endif
 
 /* Symbols are hidden in FMU builds (only fmi2* is exported there); the host
- * library for Python defines HYST_EXPORT to make them visible. */
+ * library for Python defines HYST_API to make them visible. */
 #ifndef HYST_API
 #define HYST_API
 #endif

@@ -1,5 +1,6 @@
 """Loads the C hysteresis kernel (``fmu_src/hysteresis.c``, with the output
-stages of extended models, ``fmu_src/output_stages.c``) for the host.
+stages of extended models, ``fmu_src/output_stages.c``, and the mathematics of
+the MPI parameters, ``fmu_src/mpi_parameters.c``) for the host.
 
 The play-operator recursion, the forward model and the exact inverse exist once,
 in C; the FMUs compile that file and so does this module, so the Python model and
@@ -23,7 +24,8 @@ import numpy as np
 
 from pysim.core.toolchain import SOURCE_DIR, cache_dir, host_compiler
 
-_SOURCES = ("hysteresis.c", "hysteresis.h", "output_stages.c", "output_stages.h")
+_SOURCES = ("hysteresis.c", "hysteresis.h", "output_stages.c", "output_stages.h", "mpi_parameters.c",
+            "mpi_parameters.h")
 _C_FILES = tuple(name for name in _SOURCES if name.endswith(".c"))
 _lock = threading.Lock()
 _library = None
@@ -43,6 +45,18 @@ class HystModel(ctypes.Structure):
         ("output_offset", ctypes.c_double),
         ("thresholds", _DOUBLE_P),
         ("weights", _DOUBLE_P),
+    ]
+
+
+class MpiInvertibility(ctypes.Structure):
+    """Mirror of ``MpiInvertibility`` in mpi_parameters.h."""
+
+    _fields_ = [
+        ("invertible", ctypes.c_int),
+        ("descending", ctypes.c_int),
+        ("n_active", ctypes.c_int),
+        ("min_slope", ctypes.c_double),
+        ("worst_voltage", ctypes.c_double),
     ]
 
 
@@ -96,6 +110,16 @@ def library() -> ctypes.CDLL:
         lib.hyst_invert_previous_sample_run.argtypes = [
             model_p, double, double, double, size_t, p, p, p, double, double, p]
         lib.hyst_invert_previous_sample_run.restype = None
+        lib.mpi_invertibility.argtypes = [model_p, double, double, p, ctypes.POINTER(MpiInvertibility)]
+        lib.mpi_invertibility.restype = None
+        lib.mpi_inverse_parameters.argtypes = [model_p, model_p, p, p, p]
+        lib.mpi_inverse_parameters.restype = ctypes.c_int
+        char_pp = ctypes.POINTER(ctypes.c_char_p)
+        size_p = ctypes.POINTER(size_t)
+        lib.mpi_host_layout.argtypes = [size_t, char_pp, char_pp, size_p, size_p]
+        lib.mpi_host_layout.restype = ctypes.c_int
+        lib.mpi_host_max_delay.argtypes = []
+        lib.mpi_host_max_delay.restype = ctypes.c_long
         _library = lib
         return lib
 
