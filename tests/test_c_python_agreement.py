@@ -18,9 +18,8 @@ uses it too:
   exactly at the invertibility boundary or a few ulps off it, negative
   weights, random unipolar and bipolar voltage ranges) and hand-made edge
   cases.  The C decides the sign of every slope exactly and must match the
-  exact verdict always; Python decides it in rounded arithmetic, so within
-  rounding of the boundary its verdict can differ (the strict xfail below
-  records that known difference, so it is seen when it is fixed);
+  exact verdict always; Python computes the slopes and failing intervals in
+  rounded arithmetic and takes its verdict from the C, so it matches too;
 - the analytic inverse (eq. 11-12): r_hat, b_hat, a2_hat and the offsets of
   both against each other to 1e-12, and both against exact arithmetic.
 """
@@ -294,12 +293,10 @@ def test_verdicts_agree_away_from_the_rounding_boundary(verdicts):
     assert checked > N_RANDOM / 3
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "pysim.core.invertibility decides the sign in rounded arithmetic (S with np.sum, then "
-    "-S/(3 a1) and a square root), so within rounding of the boundary (|slope| < 2e-16 of its "
-    "terms) it refuses some models whose exact slope is positive everywhere and accepts a few "
-    "whose exact slope reaches zero; the C decides exactly"))
 def test_python_verdict_is_the_exact_verdict_at_the_boundary_too(verdicts):
+    """check_invertibility takes its verdict from the C kernel's exact sign
+    decisions, so it matches exact rational arithmetic even within rounding of
+    the boundary (where its own rounded intervals could err)."""
     wrong = [m for m, report, _, cases in verdicts if report.invertible != all(case[0] > 0 for case in cases)]
     assert wrong == []
 
@@ -335,10 +332,6 @@ def test_voltage_range_argument_is_used():
     assert check_invertibility(model, (0.0, 0.99)).invertible
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "pysim.core.invertibility._failing_interval, for a1 < 0, returns only the part of the case "
-    "interval above +c when the part below -c fails too, so the message names 2.89 V as the "
-    "lowest failing voltage of a model that fails from -10 V up"))
 def test_python_failure_intervals_cover_the_worst_voltage():
     """A bipolar range with a1 < 0: the slope 1 - 0.12 u^2 is <= 0 for |u| >= 2.89 V,
     at both ends of [-10, 5] V; both report the smallest slope at -10 V."""

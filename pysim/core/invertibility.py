@@ -72,26 +72,27 @@ def square_range(u_from: float, u_to: float) -> tuple:
     return low, max(ends)
 
 
-def _failing_interval(S: float, a1: float, u_from: float, u_to: float):
-    """Sub-interval of [u_from, u_to] where S + 3 a1 u² <= 0, or None."""
+def _failing_intervals(S: float, a1: float, u_from: float, u_to: float) -> list:
+    """Sub-intervals of [u_from, u_to] where S + 3 a1 u² <= 0 (none, one or two)."""
     if a1 == 0.0:
-        return (u_from, u_to) if S <= 0 else None
+        return [(u_from, u_to)] if S <= 0 else []
     limit = -S / (3.0 * a1)           # slope <= 0  <=>  u² >= limit (a1 < 0) or u² <= limit (a1 > 0)
     if a1 < 0:
         if limit <= 0:
-            return (u_from, u_to)
+            return [(u_from, u_to)]
         c = np.sqrt(limit)
-        # |u| >= c: take the part of the interval outside (-c, c), nearest the top
-        if u_to >= c:
-            return (max(u_from, c), u_to)
+        # |u| >= c: the parts of the interval below -c and above +c
+        parts = []
         if u_from <= -c:
-            return (u_from, min(u_to, -c))
-        return None
+            parts.append((u_from, min(u_to, -c)))
+        if u_to >= c:
+            parts.append((max(u_from, c), u_to))
+        return parts
     if limit < 0:
-        return None
+        return []
     c = np.sqrt(limit)
     start, stop = max(u_from, -c), min(u_to, c)
-    return (start, stop) if start <= stop else None
+    return [(start, stop)] if start <= stop else []
 
 
 def check_invertibility(model, voltage_range_V=None, min_slope_um_per_V: float = 0.0) -> Invertibility:
@@ -127,10 +128,19 @@ def check_invertibility(model, voltage_range_V=None, min_slope_um_per_V: float =
             if not (case.u_from <= u_worst <= case.u_to):
                 u_worst = -u_worst
             worst = (slope, u_worst + offset, case.branch)
-        bad = _failing_interval(S, a1, case.u_from, case.u_to)
-        if bad is not None:
+        for bad in _failing_intervals(S, a1, case.u_from, case.u_to):
             failures.append((case.branch, bad[0] + offset, bad[1] + offset, case.n_active))
     invertible = not failures
+    if min_slope_um_per_V == 0.0:
+        # The verdict is the C kernel's, which decides the sign of every slope
+        # exactly (error-free sums and products): rounded arithmetic here can
+        # err within 1e-16 of the boundary, and the FMUs decide with the C.
+        exact = _exact_verdict(model, voltage_range_V)
+        if exact is not None and exact.invertible != invertible:
+            invertible = bool(exact.invertible)
+            failures = [] if invertible else [
+                ("descending" if exact.descending else "ascending", exact.worst_voltage, exact.worst_voltage,
+                 int(exact.n_active))]
     if invertible:
         message = (f"invertible over {_range_text(model, voltage_range_V)}: smallest slope "
                    f"{worst[0]:.6g} µm/V ({worst[2]} branch, {worst[1]:.6g} V)")
@@ -141,6 +151,24 @@ def check_invertibility(model, voltage_range_V=None, min_slope_um_per_V: float =
                    f"{min_slope_um_per_V:g} µm/V from {first[1]:.6g} V to {first[2]:.6g} V "
                    f"(smallest slope {worst[0]:.6g} µm/V at {worst[1]:.6g} V)")
     return Invertibility(invertible, float(worst[0]), float(worst[1]), worst[2], failures, message)
+
+
+def _exact_verdict(model, voltage_range_V):
+    """``MpiInvertibility`` of the C kernel (exact sign decisions), or None
+    for a model the kernel cannot take (no ``_c_model``)."""
+    import ctypes
+
+    from pysim.core import kernel
+
+    if not hasattr(model, "_c_model"):
+        return None
+    lo, hi = model.voltage_range_V if voltage_range_V is None else voltage_range_V
+    c_model = model._c_model()
+    work = np.zeros(2 * model.n_operators + 10)
+    out = kernel.MpiInvertibility()
+    kernel.library().mpi_invertibility(ctypes.byref(c_model), float(lo), float(hi), kernel.as_pointer(work),
+                                       ctypes.byref(out))
+    return out
 
 
 def _range_text(model, voltage_range_V) -> str:
