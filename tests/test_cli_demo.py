@@ -20,17 +20,31 @@ def pysim(*args, cwd=None):
 
 
 def test_demo_writes_plots_report_and_results(tmp_path):
+    """The demo co-simulates a compensator identified on the rig against an
+    actuator it does not mirror: open loop it leaves an error (model mismatch),
+    far below the uncompensated one; the loop with the inverse as feedforward
+    does best; feedback alone cannot reach the stage's bandwidth."""
     out = tmp_path / "demo"
-    result = pysim("demo", "--out", out)
+    result = pysim("demo", "--out", out, "--points", "12", "--monte-carlo", "2", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
-    for name in ("hysteresis_loops.png", "bode_magnitude.png", "tracking_errors.png"):
+    for name in ("bode.png", "tracking_error.png", "loops.png"):
         data = (out / name).read_bytes()
         assert data.startswith(PNG_MAGIC) and len(data) > 20000
     report = (out / "report.md").read_text()
-    assert "2.93 %" in report and "884 Hz" in report and "![Bode magnitude](bode_magnitude.png)" in report
+    assert "2.93 / 1.03" in report and "884 Hz" in report and "![Bode magnitude and phase](bode.png)" in report
     results = json.loads((out / "results.json").read_text())
-    assert len(results["tracking"]["tracking"]) == 4
-    assert set(results["bandwidth"]["bandwidth_hz"]) == {"uncompensated", "compensated"}
+    rows = results["tracking"]
+    assert [row["amplitude_um"] for row in rows] == [7.5, 15.0, 22.5, 30.0]
+    for row in rows:
+        unc, comp = row["uncompensated"]["rms_error_pct"], row["compensated"]["rms_error_pct"]
+        both, fb = row["feedback+compensated"]["rms_error_pct"], row["feedback"]["rms_error_pct"]
+        assert 0.05 < comp < unc / 5          # mismatch is left: not the 0.01 % of a model against itself
+        assert both < comp and both < fb
+    bandwidths = results["bandwidth"]
+    assert set(bandwidths) == {"uncompensated", "compensated", "feedback", "feedback+compensated"}
+    stage_hz = results["stage"]["minus3db_hz"]
+    assert bandwidths["feedback"]["7.5"]["minus3db_normalised_hz"] < 0.2 * stage_hz
+    assert results["monte_carlo"]["draws"] == 2
     assert "Tracking errors" in result.stdout and "-3 dB bandwidth" in result.stdout
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no staging left behind
 

@@ -19,6 +19,50 @@ from pysim.core.fileio import atomic_write_text
 from pysim.core.model import HysteresisModel
 
 
+def load_module(source, what: str = "spec"):
+    """The Python module of a spec file or a shipped spec, executed.
+
+    The one loader of spec files: models (``MODEL``), stages (``STAGE``) and
+    rigs (``RIG``) all come through it.
+
+    Parameters
+    ----------
+    source : str or Path
+        A path to a ``.py`` file, a module name (``pysim.specs.default_mpi``),
+        or a bare name of a shipped spec (``default_mpi``: ``models/`` in the
+        repository, installed as ``pysim.specs``).
+    what : str
+        What the file is, for the messages ("spec", "stage", "rig").
+
+    Raises
+    ------
+    SpecError
+        Missing file or module, a directory, or the file's own error (named
+        with its type and the file).
+    """
+    text = str(source)
+    path = Path(text)
+    if text.endswith(".py") or path.exists():
+        if not path.exists():
+            raise SpecError(f"{text}: {what} file does not exist")
+        if path.is_dir():
+            raise SpecError(f"{text}: is a directory, not a {what} file")
+        spec = importlib.util.spec_from_file_location(f"_piezo_{what}_{abs(hash(str(path.resolve())))}", path)
+        module = importlib.util.module_from_spec(spec)
+        try:
+            spec.loader.exec_module(module)
+        except Exception as exc:  # the spec's own error, reported with its file
+            raise SpecError(f"{text}: {type(exc).__name__}: {exc}") from exc
+        return module
+    name = text if "." in text else f"pysim.specs.{text}"
+    try:
+        return importlib.import_module(name)
+    except ImportError as exc:
+        raise SpecError(f"{text}: no {what} file or module of that name ({exc})") from exc
+    except Exception as exc:
+        raise SpecError(f"{text}: {type(exc).__name__}: {exc}") from exc
+
+
 def load_spec(source) -> HysteresisModel:
     """Load the ``MODEL`` of a spec.
 
@@ -26,34 +70,15 @@ def load_spec(source) -> HysteresisModel:
     ----------
     source : str, Path or HysteresisModel
         A path to a ``.py`` file, a module name (``pysim.specs.default_mpi``), a bare
-        name of a shipped spec (``models/`` in the repository, ``pysim.specs`` installed) (``default_mpi``), or a model (returned).
+        name of a shipped spec (``default_mpi``), or a model (returned); see
+        :func:`load_module`.
     """
     if isinstance(source, (HysteresisModel, ExtendedModel)):
         return source
-    text = str(source)
-    path = Path(text)
-    if text.endswith(".py") or path.exists():
-        if not path.exists():
-            raise SpecError(f"{text}: spec file does not exist")
-        if path.is_dir():
-            raise SpecError(f"{text}: is a directory, not a spec file")
-        spec = importlib.util.spec_from_file_location(f"_piezo_spec_{abs(hash(str(path.resolve())))}", path)
-        module = importlib.util.module_from_spec(spec)
-        try:
-            spec.loader.exec_module(module)
-        except Exception as exc:  # the spec's own error, reported with its file
-            raise SpecError(f"{text}: {type(exc).__name__}: {exc}") from exc
-    else:
-        name = text if "." in text else f"pysim.specs.{text}"
-        try:
-            module = importlib.import_module(name)
-        except ImportError as exc:
-            raise SpecError(f"{text}: no spec file or module of that name ({exc})") from exc
-        except Exception as exc:
-            raise SpecError(f"{text}: {type(exc).__name__}: {exc}") from exc
+    module = load_module(source, "spec")
     model = getattr(module, "MODEL", None)
     if not isinstance(model, (HysteresisModel, ExtendedModel)):
-        raise SpecError(f"{text}: defines no MODEL of type HysteresisModel or ExtendedModel")
+        raise SpecError(f"{source}: defines no MODEL of type HysteresisModel or ExtendedModel")
     return model
 
 

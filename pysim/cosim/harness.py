@@ -72,9 +72,13 @@ class FMUUnit:
         output, those are used.
     instance_name : str
         Name of the instance (shows in the FMU's log messages).
+    parameters : dict, optional
+        ``{name: value}`` of real parameters set at every initialisation
+        (e.g. ``{"a2": 0.31, "b[3]": 0.02}``: another model in the same FMU,
+        no rebuild).
     """
 
-    def __init__(self, path, ports, instance_name):
+    def __init__(self, path, ports, instance_name, parameters=None):
         from fmpy import extract, read_model_description
         from fmpy.fmi2 import FMU2Slave
 
@@ -91,6 +95,7 @@ class FMUUnit:
             raise CoSimulationError(f"{self.path}: not an FMI 2.0 co-simulation FMU")
         self.model_description = md
         self.input, self.output = self._ports(md, ports)
+        self.parameters = self._parameter_refs(md, parameters or {})
         self._unzipdir = extract(str(self.path))
         self._slave = None
         try:
@@ -137,9 +142,19 @@ class FMUUnit:
                                 f"(and not exactly one real {causality} to use instead)")
         return chosen
 
+    def _parameter_refs(self, md, parameters):
+        refs = {v.name: v.valueReference for v in md.modelVariables
+                if v.causality == "parameter" and v.type == "Real"}
+        unknown = sorted(set(parameters) - set(refs))
+        if unknown:
+            raise CoSimulationError(f"{self.path}: no real parameter named {', '.join(map(repr, unknown))}")
+        return {refs[name]: float(value) for name, value in parameters.items()}
+
     def _initialise(self):
         self._slave.setupExperiment(startTime=0.0)
         self._slave.enterInitializationMode()
+        if self.parameters:
+            self._slave.setReal(list(self.parameters), list(self.parameters.values()))
         self._slave.exitInitializationMode()
 
     def reset(self):

@@ -67,6 +67,7 @@ from pysim.cosim.harness import INVERSE_PORTS, PLANT_PORTS, CoSimResult, FMUUnit
 from pysim.cosim.stage import as_siso, discretise
 
 PATHS = ("uncompensated", "compensated", "feedback", "feedback+compensated")
+FEEDBACK_PATHS = ("feedback", "feedback+compensated")
 # steps from the feedforward's input to the stage's output (see the module notes)
 PREVIEW_STEPS = {"with_inverse": 6, "without_inverse": 5}
 
@@ -195,6 +196,9 @@ class RigSimulation:
     drive : NominalDrive, optional
         The uncompensated drive (default: from the compensator's model if given
         via :meth:`from_models`, else measured through the plant FMU).
+    plant_parameters, inverse_parameters : dict, optional
+        FMU parameters set at initialisation (``{"a2": ..., "b[1]": ...}``):
+        other models in the same FMUs, e.g. for Monte-Carlo runs.
 
     Notes
     -----
@@ -203,7 +207,8 @@ class RigSimulation:
     command, the stage at equilibrium, the controller's integrator empty.
     """
 
-    def __init__(self, rig: Rig, plant_fmu, inverse_fmu=None, drive: NominalDrive | None = None):
+    def __init__(self, rig: Rig, plant_fmu, inverse_fmu=None, drive: NominalDrive | None = None,
+                 plant_parameters=None, inverse_parameters=None):
         if not isinstance(rig, Rig):
             raise CoSimulationError(f"rig must be a Rig, got {type(rig).__name__}")
         self.rig = rig
@@ -211,8 +216,9 @@ class RigSimulation:
         self.stage_system = rig.stage
         self._units = []
         try:
-            self.plant = self._open(plant_fmu, PLANT_PORTS, "plant")
-            self.inverse = None if inverse_fmu is None else self._open(inverse_fmu, INVERSE_PORTS, "inverse")
+            self.plant = self._open(plant_fmu, PLANT_PORTS, "plant", plant_parameters)
+            self.inverse = None if inverse_fmu is None else self._open(inverse_fmu, INVERSE_PORTS, "inverse",
+                                                                       inverse_parameters)
             self.drive = drive if drive is not None else NominalDrive.from_plant(self)
         except BaseException:
             self.close()
@@ -233,8 +239,8 @@ class RigSimulation:
             drive = NominalDrive.from_model(getattr(compensator_model, "hysteresis", compensator_model))
         return cls(rig, plant, inverse, drive)
 
-    def _open(self, path, ports, name):
-        unit = FMUUnit(path, ports, name)
+    def _open(self, path, ports, name, parameters=None):
+        unit = FMUUnit(path, ports, name, parameters)
         self._units.append(unit)
         return unit
 
@@ -305,6 +311,19 @@ class RigSimulation:
             offset = self.drive.low_V - self.drive.low_um / self.drive.gain_um_per_V
         return self._loop(r, ahead, compensated, feedback, scale, offset, path)
 
+    def run_voltage(self, voltage_V) -> RigResult:
+        """Drive the rig open loop with actuator voltages (V): the controller
+        commands ``voltage / gain`` through the DAC, ahead by the preview, so
+        the amplifier delivers the voltage at the matching sample.  Used to
+        record identification data the way a rig records them."""
+        v = np.asarray(voltage_V, dtype=float)
+        if v.ndim != 1 or v.size == 0 or not np.all(np.isfinite(v)):
+            raise CoSimulationError("the voltage must be a non-empty one-dimensional finite array")
+        self.reset()
+        preview = PREVIEW_STEPS["without_inverse"] - 2       # the voltage, not the stage, is lined up
+        ahead = np.concatenate([v[preview:], np.full(min(preview, v.size), v[-1])])
+        return self._loop(np.zeros(v.size), ahead, False, False, 1.0, 0.0, "voltage")
+
     def _loop(self, r, ahead, compensated, feedback, ff_scale, ff_offset, path):
         rig, T = self.rig, self.step_s
         amp, dac, adc, pi = rig.amplifier, rig.dac, rig.adc, rig.controller
@@ -344,8 +363,7 @@ class RigSimulation:
             else:
                 ff_next = 0.0
             # controller: the command it exposes at t + h
-            f = ff_scale * (c_ff if compensated else c_ahead) + ff_offset if not feedback or compensated \
-                else 0.0
+            f = ff_scale * (c_ff if compensated else c_ahead) + ff_offset
             if feedback:
                 u, integrator = pi.step(integrator, c_ref - c_meas, f, T)
             else:
@@ -386,9 +404,13 @@ def linear_loop(rig: Rig, plant_gain_um_per_V: float):
     amplifier without bandwidth or slew limit: reference (µm) -> stage (µm),
     feedback alone.
 
-    The loop gain is ``C(z) z^-2 g G(z)``: the PI controller
-    ``kp + ki T / (z - 1)``, one sample of computation delay, one of the
-    amplifier's hold, the actuator gain and the stage discretised with ZOH.
+    The loop gain is ``K(z) g G(z) z^-4``: the PI controller
+    ``K = kp + ki T / (z - 1)``, the actuator gain ``g``, the stage
+    discretised with ZOH, and one step of hold in each of the controller,
+    amplifier, actuator and sensor units (see the module notes); the reference
+    reaches the loop one step late as well, which the closed loop returned
+    here does not include (compare it with the reference at the same
+    instants, ``RigResult.reference_um``).
 
     Examples
     --------
@@ -406,7 +428,135 @@ def linear_loop(rig: Rig, plant_gain_um_per_V: float):
     z = control.tf([1.0, 0.0], [1.0], T)
     pi = rig.controller
     controller = pi.kp_V_per_um + pi.ki_V_per_um_s * T / (z - 1)
-    delay = 1 / (z * z)
+    delay = 1 / (z * z * z * z)
     stage = control.tf([1.0], [1.0], T) if rig.stage is None else control.tf(discretise(rig.stage, T, "zoh"))
     forward = controller * delay * plant_gain_um_per_V * stage
     return control.feedback(forward, 1)
+
+
+def sweep_frequencies(step_s: float, f_min_hz: float = 10.0, f_max_hz: float = 2000.0, points: int = 40):
+    """Log-spaced frequencies rounded to a whole number of steps per period
+    (the rig samples at a fixed rate), duplicates removed.
+
+    Returns ``(frequencies_hz, samples_per_period)``.
+
+    Examples
+    --------
+    >>> f, n = sweep_frequencies(5e-5, 10.0, 2000.0, 40)
+    >>> bool(np.allclose(f * n * 5e-5, 1.0)), int(n[0]), int(n[-1])
+    (True, 2000, 10)
+    """
+    if not (0 < f_min_hz < f_max_hz) or points < 2:
+        raise CoSimulationError(f"need 0 < f_min < f_max and at least 2 points, got {f_min_hz}, {f_max_hz}, {points}")
+    n = np.unique(np.round(1.0 / (np.geomspace(f_min_hz, f_max_hz, int(points)) * step_s)).astype(int))[::-1]
+    n = n[n >= 4]
+    if n.size < 2:
+        raise CoSimulationError(f"the step {step_s} s leaves fewer than two sweep frequencies below {f_max_hz} Hz")
+    return 1.0 / (n * step_s), n
+
+
+def settling_time_s(sim: RigSimulation, path: str) -> float:
+    """Time for the rig's slowest linear transient to fall by e^-1: the stage
+    (and, on feedback paths, the closed loop linearised at the compensator's
+    nominal gain), s."""
+    import control
+
+    from pysim.cosim.stage import slowest_time_constant_s
+
+    tau = 0.0 if sim.rig.stage is None else slowest_time_constant_s(sim.rig.stage)
+    if path in FEEDBACK_PATHS:
+        loop = linear_loop(sim.rig, sim.drive.gain_um_per_V)
+        radius = float(np.max(np.abs(control.poles(loop)))) if control.poles(loop).size else 0.0
+        if radius >= 1.0:
+            raise CoSimulationError(f"the feedback loop is unstable at the nominal gain (pole radius {radius:.4f}): "
+                                    "lower kp or ki")
+        if radius > 0:
+            tau = max(tau, -sim.step_s / math.log(radius))
+    return tau
+
+
+def rig_stepped_sine(sim: RigSimulation, amplitude_um: float, offset_um: float, path: str,
+                     frequencies_hz=None, settle_tol: float = 1e-4, measure_periods: int = 2, progress=None):
+    """Stepped-sine response of one path of a rig at its fixed sample rate.
+
+    At each frequency (whole steps per period, :func:`sweep_frequencies`) the
+    rig runs from rest for one period plus enough periods for the slowest
+    linear transient (:func:`settling_time_s`) to fall by ``settle_tol``, then
+    the fundamental of the stage's displacement is taken over
+    ``measure_periods`` whole periods and divided by the reference's (at the
+    same instants): gain and phase against the desired sine.
+
+    Returns
+    -------
+    pysim.cosim.bandwidth.SweepResult
+        ``response`` against the desired sine; ``actuator_gain`` the
+        actuator's fundamental over ``A``; ``settings`` also hold the
+        ``error_rms_pct`` of the stage against the reference per frequency.
+    """
+    from pysim.cosim.bandwidth import SweepResult, fundamental
+
+    if frequencies_hz is None:
+        f, n_per = sweep_frequencies(sim.step_s)
+    else:
+        f = np.asarray(frequencies_hz, dtype=float)
+        n_per = np.round(1.0 / (f * sim.step_s)).astype(int)
+        if np.any(n_per < 4) or not np.allclose(n_per * f * sim.step_s, 1.0, rtol=1e-9):
+            raise CoSimulationError("each frequency must have a whole number (>= 4) of steps per period; "
+                                    "use sweep_frequencies")
+    if not amplitude_um > 0:
+        raise CoSimulationError(f"amplitude must be positive, got {amplitude_um} µm")
+    tau = settling_time_s(sim, path)
+    response = np.empty(f.size, dtype=complex)
+    actuator = np.empty(f.size)
+    error_rms = np.empty(f.size)
+    for i, (fi, n) in enumerate(zip(f, n_per)):
+        settle = 1 + (math.ceil(math.log(1.0 / settle_tol) * tau * fi) if tau > 0 else 0)
+        k = np.arange((settle + measure_periods) * int(n) + 1)
+        reference = offset_um + amplitude_um * np.sin(2.0 * math.pi * k / n)
+        result = sim.run_path(reference, path)
+        tail = slice(settle * int(n), (settle + measure_periods) * int(n))
+        wanted = fundamental(result.reference_um[tail], int(n))
+        response[i] = fundamental(result.displacement_stage_um[tail], int(n)) / wanted
+        actuator[i] = abs(fundamental(result.displacement_plant_um[tail], int(n))) / amplitude_um
+        error = result.displacement_stage_um[tail] - result.reference_um[tail]
+        error_rms[i] = 100.0 * math.sqrt(float(np.mean(error ** 2))) / (2.0 * amplitude_um)
+        if progress is not None:
+            progress.update()
+    settings = {"samples_per_period": n_per.tolist(), "settle_tol": settle_tol,
+                "measure_periods": measure_periods, "settling_time_s": tau, "error_rms_pct": error_rms.tolist(),
+                "step_s": sim.step_s}
+    return SweepResult(path, float(amplitude_um), float(offset_um), f, response, actuator, settings)
+
+
+def tracking_bandwidth_hz(result, error_pct: float = 10.0) -> float:
+    """Error-based tracking bandwidth: the first frequency where the RMS
+    tracking error of the sine exceeds ``error_pct`` % of its peak-to-peak
+    range, interpolated in log-frequency (NaN if never)."""
+    f = np.asarray(result.frequencies_hz, dtype=float)
+    e = np.asarray(result.settings["error_rms_pct"], dtype=float)
+    above = np.flatnonzero(e > error_pct)
+    if above.size == 0:
+        return math.nan
+    i = above[0]
+    if i == 0:
+        return float(f[0])
+    x0, x1 = math.log(f[i - 1]), math.log(f[i])
+    return math.exp(x0 + (error_pct - e[i - 1]) * (x1 - x0) / (e[i] - e[i - 1]))
+
+
+def load_rig(source) -> Rig:
+    """The ``RIG`` of a rig spec: a ``.py`` file, a module name, or a bare name
+    of a shipped spec (``rig_default``); a :class:`Rig` is returned as is."""
+    from pysim.core.errors import SpecError
+    from pysim.core.spec import load_module
+
+    if isinstance(source, Rig):
+        return source
+    try:
+        module = load_module(source, "rig")
+    except SpecError as exc:
+        raise CoSimulationError(str(exc)) from exc
+    rig = getattr(module, "RIG", None)
+    if not isinstance(rig, Rig):
+        raise CoSimulationError(f"{source}: defines no RIG of type pysim.cosim.rig.Rig")
+    return rig

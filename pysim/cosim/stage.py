@@ -27,16 +27,15 @@ in one call or in pieces with identical results.
 """
 from __future__ import annotations
 
-import importlib
-import importlib.util
 import math
-from pathlib import Path
 
 import control
 import numpy as np
 import scipy.linalg
 import scipy.signal
 
+from pysim.core.errors import SpecError
+from pysim.core.spec import load_module
 from pysim.cosim.errors import CoSimulationError
 
 METHODS = ("tustin", "zoh", "foh")
@@ -278,22 +277,10 @@ def load_stage(source):
     if isinstance(source, (control.TransferFunction, control.StateSpace)):
         return as_siso(source)
     text = str(source)
-    path = Path(text)
     try:
-        if text.endswith(".py") or path.exists():
-            if not path.is_file():
-                raise CoSimulationError(f"{text}: stage file does not exist")
-            spec = importlib.util.spec_from_file_location(f"_piezo_stage_{abs(hash(str(path.resolve())))}", path)
-            module = importlib.util.module_from_spec(spec)
-            spec.loader.exec_module(module)
-        else:
-            module = importlib.import_module(text if "." in text else f"pysim.specs.{text}")
-    except CoSimulationError:
-        raise
-    except ImportError as exc:
-        raise CoSimulationError(f"{text}: no stage file or module of that name ({exc})") from exc
-    except Exception as exc:  # the module's own error, reported with its name
-        raise CoSimulationError(f"{text}: {type(exc).__name__}: {exc}") from exc
+        module = load_module(source, "stage")
+    except SpecError as exc:
+        raise CoSimulationError(str(exc)) from exc
     stage = getattr(module, "STAGE", None)
     if not isinstance(stage, (control.TransferFunction, control.StateSpace)):
         raise CoSimulationError(f"{text}: defines no STAGE of type control.TransferFunction or control.StateSpace")
