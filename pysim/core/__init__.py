@@ -13,11 +13,11 @@ Examples
 True
 """
 from pysim.core.errors import ModelError, NotInvertibleError, PiezoMPIError, SpecError
-from pysim.core.extended import ExtendedModel, ExtendedState, OutputStages
+from pysim.core.extended import ExtendedModel, ExtendedState, OutputStages, StageSpec
 from pysim.core.metrics import error_measures
 from pysim.core.model import HysteresisModel, InverseCompensator, analytic_inverse, eq13_thresholds, invert
 from pysim.core.spec import load_spec, write_spec
 
-__all__ = ["HysteresisModel", "ExtendedModel", "ExtendedState", "OutputStages", "InverseCompensator",
+__all__ = ["HysteresisModel", "ExtendedModel", "ExtendedState", "OutputStages", "StageSpec", "InverseCompensator",
            "analytic_inverse", "invert", "eq13_thresholds", "error_measures", "load_spec", "write_spec",
            "PiezoMPIError", "ModelError", "NotInvertibleError", "SpecError"]

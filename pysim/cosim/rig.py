@@ -70,6 +70,7 @@ PATHS = ("uncompensated", "compensated", "feedback", "feedback+compensated")
 FEEDBACK_PATHS = ("feedback", "feedback+compensated")
 # steps from the feedforward's input to the stage's output (see the module notes)
 PREVIEW_STEPS = {"with_inverse": 6, "without_inverse": 5}
+MAX_PREVIEW = max(PREVIEW_STEPS.values())
 
 __all__ = ["Rig", "RigSimulation", "RigResult", "PATHS", "linear_loop"]
 
@@ -299,6 +300,8 @@ class RigSimulation:
         r = np.asarray(reference_um, dtype=float)
         if r.ndim != 1 or r.size == 0 or not np.all(np.isfinite(r)):
             raise CoSimulationError("the reference must be a non-empty one-dimensional finite array")
+        # the last `preview` samples see the final reference held: give the
+        # reference that many samples past the part you evaluate
         self.reset()
         preview = PREVIEW_STEPS["with_inverse" if compensated else "without_inverse"]
         ahead = np.concatenate([r[preview:], np.full(min(preview, r.size), r[-1])])
@@ -404,13 +407,13 @@ def linear_loop(rig: Rig, plant_gain_um_per_V: float):
     amplifier without bandwidth or slew limit: reference (µm) -> stage (µm),
     feedback alone.
 
-    The loop gain is ``K(z) g G(z) z^-4``: the PI controller
+    The forward path is ``F = K(z) g G(z) z^-3``: the PI controller
     ``K = kp + ki T / (z - 1)``, the actuator gain ``g``, the stage
     discretised with ZOH, and one step of hold in each of the controller,
-    amplifier, actuator and sensor units (see the module notes); the reference
-    reaches the loop one step late as well, which the closed loop returned
-    here does not include (compare it with the reference at the same
-    instants, ``RigResult.reference_um``).
+    amplifier and actuator units; the sensor's step of hold is in the feedback
+    path, so the loop gain is ``F z^-1`` and the closed loop ``F / (1 + F z^-1)``
+    (see the module notes).  The reference reaches the controller one step
+    late as well, which the closed loop returned here does not include.
 
     Examples
     --------
@@ -428,10 +431,9 @@ def linear_loop(rig: Rig, plant_gain_um_per_V: float):
     z = control.tf([1.0, 0.0], [1.0], T)
     pi = rig.controller
     controller = pi.kp_V_per_um + pi.ki_V_per_um_s * T / (z - 1)
-    delay = 1 / (z * z * z * z)
     stage = control.tf([1.0], [1.0], T) if rig.stage is None else control.tf(discretise(rig.stage, T, "zoh"))
-    forward = controller * delay * plant_gain_um_per_V * stage
-    return control.feedback(forward, 1)
+    forward = controller / (z * z * z) * plant_gain_um_per_V * stage
+    return control.feedback(forward, 1 / z)
 
 
 def sweep_frequencies(step_s: float, f_min_hz: float = 10.0, f_max_hz: float = 2000.0, points: int = 40):
@@ -506,12 +508,18 @@ def rig_stepped_sine(sim: RigSimulation, amplitude_um: float, offset_um: float, 
     if not amplitude_um > 0:
         raise CoSimulationError(f"amplitude must be positive, got {amplitude_um} µm")
     tau = settling_time_s(sim, path)
+    amp = sim.rig.amplifier
+    if not math.isinf(amp.bandwidth_hz):
+        tau = max(tau, 1.0 / (2.0 * math.pi * amp.bandwidth_hz))
+    # the rig starts at rest at 0 V: the amplifier first slews to the offset
+    startup_s = (abs(offset_um) + amplitude_um) / abs(sim.drive.gain_um_per_V) / amp.slew_rate_V_per_s
     response = np.empty(f.size, dtype=complex)
     actuator = np.empty(f.size)
     error_rms = np.empty(f.size)
     for i, (fi, n) in enumerate(zip(f, n_per)):
-        settle = 1 + (math.ceil(math.log(1.0 / settle_tol) * tau * fi) if tau > 0 else 0)
-        k = np.arange((settle + measure_periods) * int(n) + 1)
+        settle = 1 + math.ceil(startup_s * fi) + (math.ceil(math.log(1.0 / settle_tol) * tau * fi) if tau > 0 else 0)
+        # the reference runs on past the measurement by the feedforward's preview
+        k = np.arange((settle + measure_periods) * int(n) + 1 + MAX_PREVIEW)
         reference = offset_um + amplitude_um * np.sin(2.0 * math.pi * k / n)
         result = sim.run_path(reference, path)
         tail = slice(settle * int(n), (settle + measure_periods) * int(n))

@@ -27,7 +27,7 @@ import numpy as np
 
 from pysim.core.metrics import error_measures
 from pysim.cosim.harness import fmus_for_model, plant_fmu_for_model
-from pysim.cosim.rig import PATHS, Rig, RigSimulation, rig_stepped_sine, sweep_frequencies, tracking_bandwidth_hz
+from pysim.cosim.rig import MAX_PREVIEW, PATHS, Rig, RigSimulation, rig_stepped_sine, sweep_frequencies, tracking_bandwidth_hz
 from pysim.cosim.tracking import PAPER_TABLE_III, TABLE_III_AMPLITUDES_UM, TABLE_III_OFFSET_UM
 from pysim.identification.identify import identify
 
@@ -70,11 +70,17 @@ def record_on_rig(sim: RigSimulation, voltage_V, first_recorded: int = 0) -> tup
 
 
 def reference_sine(amplitude_um: float, step_s: float, periods: int = 2, offset_um: float = TABLE_III_OFFSET_UM,
-                   frequency_hz: float = 1.0) -> np.ndarray:
-    """``offset + A sin(2π f t)`` (µm) over whole periods at the rig's step."""
+                   frequency_hz: float = 1.0) -> tuple:
+    """``offset + A sin(2π f t)`` (µm) at the rig's step over ``periods``
+    whole periods and on past them by the feedforward's preview, and the rows
+    of a :class:`pysim.cosim.rig.RigResult` that hold the last whole period.
+
+    Returns ``(reference_um, last_period_rows)``.
+    """
     per_period = int(round(1.0 / (frequency_hz * step_s)))
-    k = np.arange(per_period * periods + 1)
-    return offset_um + amplitude_um * np.sin(2.0 * math.pi * k / per_period)
+    k = np.arange(per_period * periods + 1 + MAX_PREVIEW)
+    reference = offset_um + amplitude_um * np.sin(2.0 * math.pi * k / per_period)
+    return reference, slice((periods - 1) * per_period, periods * per_period)
 
 
 @dataclass
@@ -137,8 +143,7 @@ class RigStudy:
         rows = []
         try:
             for amplitude in amplitudes_um:
-                reference = reference_sine(amplitude, self.rig.step_s, periods, offset_um, frequency_hz)
-                last = slice(reference.size - (reference.size - 1) // periods - 1, None)
+                reference, last = reference_sine(amplitude, self.rig.step_s, periods, offset_um, frequency_hz)
                 row = {"amplitude_um": float(amplitude), "paper": PAPER_TABLE_III.get(float(amplitude))}
                 for path in paths:
                     result = sim.run_path(reference, path)
@@ -183,8 +188,7 @@ class RigStudy:
         rng = np.random.default_rng(seed)
         model = self.compensator
         out = {path: [] for path in paths}
-        reference = reference_sine(amplitude_um, self.rig.step_s, 2)
-        last = slice(reference.size - (reference.size - 1) // 2 - 1, None)
+        reference, last = reference_sine(amplitude_um, self.rig.step_s, 2)
         done = 0
         while done < draws:
             weights = np.asarray(model.weights_um_per_V) * (1 + weight_spread * rng.standard_normal(model.n_operators))
