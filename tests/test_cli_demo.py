@@ -61,6 +61,23 @@ def test_track_json(default_fmus):
         assert row["paper"]["max_error_pct"] > 0
 
 
+def test_track_takes_the_users_references_and_warns_when_they_are_out_of_reach(default_fmus):
+    """The default actuator reaches about 0 to 74.6 µm: a 40 µm sine around
+    37.5 µm leaves that range, and the user is told so."""
+    plant, inverse = default_fmus
+    result = pysim("track", "--json", "--plant", plant, "--inverse", inverse, "--amplitudes", "10", "40",
+                   "--offset", "37.5", "--frequency", "2", "--step", "5e-4")
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    assert [row["amplitude_um"] for row in data["tracking"]] == [10.0, 40.0]
+    assert data["reference"] == "x_d = A sin(2 pi 2 t) + 37.5 um"
+    assert all(row["paper"] is None for row in data["tracking"])         # not Table III's reference
+    assert len(data["warnings"]) == 1 and "A = 40 µm" in data["warnings"][0]
+    assert "warning: the reference A = 40 µm spans -2.5 to 77.5 µm" in result.stderr
+    small, large = data["tracking"]
+    assert small["compensated"]["max_error_pct"] < 1.0 < large["compensated"]["max_error_pct"]
+
+
 def test_bandwidth_json(default_fmus):
     plant, inverse = default_fmus
     result = pysim("bandwidth", "--json", "--plant", plant, "--inverse", inverse, "--amplitudes", "10", "20")

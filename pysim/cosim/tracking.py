@@ -82,7 +82,8 @@ def track(sim: CoSimulation, drive: NominalDrive, amplitudes_um=TABLE_III_AMPLIT
                 runs[(float(amplitude), path)] = result
                 if progress is not None:
                     progress.update()
-            row["paper"] = PAPER_TABLE_III.get(float(amplitude))
+            table_iii = offset_um == TABLE_III_OFFSET_UM and frequency_hz == TABLE_III_FREQUENCY_HZ
+            row["paper"] = PAPER_TABLE_III.get(float(amplitude)) if table_iii else None
             rows.append(row)
     finally:
         sim.stage_start = saved_start
@@ -92,6 +93,33 @@ def track(sim: CoSimulation, drive: NominalDrive, amplitudes_um=TABLE_III_AMPLIT
 def _with_reference(result: CoSimResult, reference) -> CoSimResult:
     result.reference_um = np.asarray(reference, dtype=float)
     return result
+
+
+def reachable_range_um(sim) -> tuple:
+    """``(low, high)`` displacement (µm) the plant reaches on its major loop:
+    at the top of its voltage range after rising from the bottom, and at the
+    bottom after falling from the top.  A reference outside it makes the
+    inverse saturate at the voltage range.  Leaves the simulation reset."""
+    lo, hi = sim.plant.range()
+    if lo is None or hi is None:
+        raise CoSimulationError(f"{sim.plant.path.name}: the voltage input declares no min/max")
+    sim.reset()
+    y = sim.run(voltage_V=[lo, hi, lo]).displacement_plant_um
+    sim.reset()
+    return float(y[2]), float(y[1])
+
+
+def reference_warnings(sim, references_um) -> list:
+    """One message per reference that leaves the reachable range."""
+    low, high = reachable_range_um(sim)
+    messages = []
+    for name, reference in references_um.items():
+        r = np.asarray(reference, dtype=float)
+        if r.min() < low - 1e-9 or r.max() > high + 1e-9:
+            messages.append(f"the reference {name} spans {r.min():.4g} to {r.max():.4g} µm but the actuator reaches "
+                            f"only {low:.4g} to {high:.4g} µm: the inverse saturates at its voltage range and the "
+                            "errors include that")
+    return messages
 
 
 def format_table(rows) -> str:
