@@ -19,7 +19,7 @@ import traceback
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-SECTIONS = ("fmu_step", "harness", "sweep", "identify", "build", "load", "diagnose")
+SECTIONS = ("fmu_step", "harness", "sweep", "rig", "identify", "build", "load", "diagnose")
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 
@@ -73,6 +73,13 @@ def _sweep(quick: bool):
             f"harness {result['harness_sweep_s']:.2f} s, simulate_fmu {result['simulate_fmu_sweep_s']:.1f} s")
     return result, [Row("Bandwidth sweep", "simulate_fmu sweep / harness sweep", result["speed_up"], "x",
                         *at_least(result["speed_up"], 10.0, "x"), note=note)]
+
+
+def _rig(quick: bool):
+    import bench_rig
+
+    result = bench_rig.measure(quick)
+    return result, bench_rig.rows(result)
 
 
 def _fmu_step(quick: bool):
@@ -131,7 +138,7 @@ def _diagnose(quick: bool):
                  lines[-1].strip() if lines else "")])
 
 
-RUNNERS = {"fmu_step": _fmu_step, "harness": _harness, "sweep": _sweep, "identify": _identify,
+RUNNERS = {"fmu_step": _fmu_step, "harness": _harness, "sweep": _sweep, "rig": _rig, "identify": _identify,
            "build": _build, "load": _load, "diagnose": _diagnose}
 
 
