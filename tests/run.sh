@@ -43,9 +43,11 @@ mkdir -p "$WORK/user"
 (
     cd "$WORK/user"
     "$VENV/bin/pysim" demo --out demo_out >/dev/null
-    test -s demo_out/report.md && test -s demo_out/results.json && test -s demo_out/bode_magnitude.png
     "$VENV/bin/build-fmu" default_mpi -o fmus -q
-    test -s fmus/default_mpi_plant.fmu && test -s fmus/default_mpi_inverse.fmu
+    for f in demo_out/report.md demo_out/results.json demo_out/bode.png fmus/default_mpi_plant.fmu \
+             fmus/default_mpi_inverse.fmu; do
+        [ -s "$f" ] || { echo "tests/run.sh: $f was not written" >&2; exit 1; }
+    done
     "$VENV/bin/python" - <<'EOF'
 import importlib.util, pathlib, sys
 import pysim
