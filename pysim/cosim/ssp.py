@@ -44,6 +44,7 @@ import zipfile
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
+import control
 import numpy as np
 
 from pysim.cosim.errors import CoSimulationError
@@ -114,9 +115,9 @@ def _feedforward(rig, path_name, compensated, feedback, plant_fmu, drive):
     return scale, drive.low_V - drive.low_um / drive.gain_um_per_V
 
 
-def _connector(name, kind, unit):
+def _connector(name, kind, unit, indent):
     unit_attr = f" unit={quoteattr(unit)}" if unit else ""
-    return (f'        <ssd:Connector name={quoteattr(name)} kind="{kind}"><ssc:Real{unit_attr}/>'
+    return (f'{" " * indent}<ssd:Connector name={quoteattr(name)} kind="{kind}"><ssc:Real{unit_attr}/>'
             "</ssd:Connector>")
 
 
@@ -130,16 +131,14 @@ def _ssd(name, components, connections, description) -> str:
              'generationTool="piezo-mpi">',
              f"  <ssd:System name={quoteattr(name)}>",
              "    <ssd:Connectors>"]
-    lines += [_connector(c, "input", "um").replace("        ", "      ", 1)
-              for c in ("reference", "reference_ahead")]
-    lines += [_connector(c, "output", unit).replace("        ", "      ", 1)
-              for c, (_, _, unit) in SYSTEM_OUTPUTS.items()]
+    lines += [_connector(c, "input", "um", 6) for c in ("reference", "reference_ahead")]
+    lines += [_connector(c, "output", unit, 6) for c, (_, _, unit) in SYSTEM_OUTPUTS.items()]
     lines += ["    </ssd:Connectors>", "    <ssd:Elements>"]
     for element, source, connectors in components:
         lines.append(f'      <ssd:Component name={quoteattr(element)} type="application/x-fmu-sharedlibrary" '
                      f"source={quoteattr(source)}>")
         lines.append("        <ssd:Connectors>")
-        lines += ["  " + _connector(c, kind, unit) for c, kind, unit in connectors]
+        lines += [_connector(c, kind, unit, 10) for c, kind, unit in connectors]
         lines.append("        </ssd:Connectors>")
         lines.append("      </ssd:Component>")
     lines += ["    </ssd:Elements>", "    <ssd:Connections>"]
@@ -215,8 +214,6 @@ def write_rig_ssp(rig: Rig, compensator_model, path, path_name: str = "feedback+
     scale, offset = _feedforward(rig, path_name, compensated, feedback, plant_fmu, drive)
     base = _identifier(rig.name)
     T = float(rig.step_s)
-    import control
-
     stage = rig.stage if rig.stage is not None else control.tf([1.0], [1.0])
     parts = [
         controller_part(rig.controller, rig.dac, rig.amplifier.gain_V_per_V, T, feedback=feedback,

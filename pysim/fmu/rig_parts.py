@@ -373,7 +373,7 @@ def zoh_matrices(system, step_s: float) -> tuple:
     >>> import control
     >>> Ad, Bd, C, D = zoh_matrices(control.tf([1.0], [1.0, 1.0]), 0.5)
     >>> round(float(Ad[0, 0]), 12), round(float(Bd[0, 0] * C[0, 0]), 12)
-    (0.60653065971, 0.39346934029)
+    (0.606530659713, 0.393469340287)
     """
     import scipy.signal
 
