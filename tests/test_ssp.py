@@ -128,3 +128,22 @@ def test_ssp_for_every_platform(tmp_path):
             with zipfile.ZipFile(archive.open(member)) as fmu:
                 folders = {name.split("/")[1] for name in fmu.namelist() if name.startswith("binaries/")}
                 assert folders == {"linux64", "win64", "darwin64"}, member
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="RigSimulation._loop reads the plant FMU's output before fmi2DoStep, "
+                   "fmpy after it: the two agree only for a plant without output stages (a rate-independent "
+                   "hysteresis); with creep they differ by about 1e-5 relative.  Reading the plant after "
+                   "its step in _loop makes them equal bit for bit.")
+def test_ssp_equals_the_harness_for_an_extended_plant(tmp_path):
+    from pysim.core.extended import ExtendedModel, StageSpec
+
+    gain = TRUTH.major_loop_gain()
+    plant = ExtendedModel(TRUTH, StageSpec(sample_period_s=T, creep_time_constants_s=(0.05, 1.0),
+                                           creep_weights_um_per_V=(0.012 * gain, 0.018 * gain)))
+    rig = RIG.with_parts(plant=plant)
+    r = _reference(600)
+    ssp = write_rig_ssp(rig, MODEL, tmp_path / "creep.ssp", "compensated")
+    result = simulate_rig_ssp(ssp, r, T, "compensated")
+    with RigSimulation(rig, plant_fmu_for_model(plant), fmus_for_model(MODEL)[1]) as sim:
+        expected = sim.run_path(r, "compensated")
+    assert _max_relative(result.displacement_plant_um, expected.displacement_plant_um) <= 1e-12
