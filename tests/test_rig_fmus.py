@@ -334,6 +334,7 @@ def test_fmpy_validate(fmus, name):
     ("sensor", {"adc_bits": 33.0}, "adc_bits"),
     ("sensor", {"seed": 0.5}, "seed"),
     ("sensor", {"noise_rms": -0.1}, "noise_rms"),
+    ("stage", {"A[1,1]": 1e300}, "A[1,1]"),
 ])
 def test_bad_parameters_refused_at_initialisation(fmus, name, parameters, word):
     from pysim.testing.fmus import RawFMU
