@@ -56,7 +56,12 @@ prediction
     measured record (what a user sees; its noise floor is printed) and against
     the noise-free record.  "Extended better" means a smaller RMS against the
     noise-free record by more than 0.1 % of the baseline's RMS; within that,
-    "same".  Printed with them: the noise floor (σ) and the effect's own RMS on
+    "same".  The same comparison (column "3rd e/b": extended over baseline
+    RMS) is made on a third record of the actuator
+    (a third input shape, from rest) that is never given to the diagnosis --
+    when ``validate=`` exists the diagnosis has seen the validation record,
+    so only the third record is a prediction it cannot have fitted.
+    Printed with them: the noise floor (σ) and the effect's own RMS on
     the validation record (what a model with the true hysteresis and no
     effect would miss), both in % of the range.
 
@@ -166,6 +171,9 @@ def evaluate(api: _Api, seed: int) -> dict:
         "train": {"input": pair.train.input_kind, "start": pair.train.start, "samples": pair.train.voltage_V.size},
         "validation": {"input": pair.validation.input_kind, "samples": pair.validation.voltage_V.size,
                        "settle_samples": pair.validation.settle_samples},
+        "test": {"input": pair.test.input_kind, "samples": pair.test.voltage_V.size,
+                 "settle_samples": pair.test.settle_samples,
+                 "effect_pct": round(truth.test_effect_rms_um / float(np.ptp(pair.test.clean_um)) * 100, 4)},
         "noise_pct": round(truth.noise_fraction_of_range * 100, 3),
         "quantised": truth.quantisation_step_um > 0, "generate_s": round(t1 - t0, 3),
     }
@@ -201,24 +209,33 @@ def evaluate(api: _Api, seed: int) -> dict:
         if len(named) > 1 and ex.size:
             row["excitation"].update(_play_excitation(api, pair, ex, seed))
 
-    # prediction of the other record
+    # prediction of the other records
+    row.update(_predict(result, pair.validation, span))
+    test = _predict(result, pair.test, float(np.ptp(pair.test.clean_um)))
+    row["test"].update(baseline=test["baseline"], extended=test["extended"], prediction=test["prediction"])
+    row["outcome"] = _outcome(api, truth, named, row["prediction"], row["excitation"])
+    return row
+
+
+def _predict(result, record, span_um) -> dict:
+    """Errors of the baseline and the extended model on ``record`` and which is better."""
+    out = {}
     for label in ("baseline", "extended"):
         model = _attribute(result, label, "model")
         if model is None:
-            row[label] = NOT_AVAILABLE
+            out[label] = NOT_AVAILABLE
             continue
         try:
-            row[label] = {"model": type(model).__name__, **_errors_pct(model, pair.validation, span)}
+            out[label] = {"model": type(model).__name__, **_errors_pct(model, record, span_um)}
         except Exception as exc:
-            row[label] = f"simulation failed: {type(exc).__name__}: {exc}"
-    base, ext = row["baseline"], row["extended"]
+            out[label] = f"simulation failed: {type(exc).__name__}: {exc}"
+    base, ext = out["baseline"], out["extended"]
     if isinstance(base, dict) and isinstance(ext, dict):
         a, b = ext["rms_clean_pct"], base["rms_clean_pct"]
-        row["prediction"] = "same" if abs(a - b) <= SAME_MARGIN * b else ("better" if a < b else "worse")
+        out["prediction"] = "same" if abs(a - b) <= SAME_MARGIN * b else ("better" if a < b else "worse")
     else:
-        row["prediction"] = NOT_AVAILABLE
-    row["outcome"] = _outcome(api, truth, named, row["prediction"], row["excitation"])
-    return row
+        out["prediction"] = NOT_AVAILABLE
+    return out
 
 
 def _play_excitation(api, pair, excitation_V, seed) -> dict:
@@ -286,6 +303,12 @@ def summarise(rows, api, elapsed_s) -> dict:
         "detectable_effect_records_extended_better": share(detectable, lambda r: r.get("prediction") == "better"),
         "effect_records_extended_worse": share(effects, lambda r: r.get("prediction") == "worse"),
         "none_records_extended_worse": share(nones, lambda r: r.get("prediction") == "worse"),
+        "test_record_effect_records_extended_better": share(
+            effects, lambda r: r["test"].get("prediction") == "better"),
+        "test_record_effect_records_extended_worse": share(
+            effects, lambda r: r["test"].get("prediction") == "worse"),
+        "test_record_none_records_extended_worse": share(
+            nones, lambda r: r["test"].get("prediction") == "worse"),
     }
     for key in ("baseline", "extended"):
         values = [r[key]["rms_measured_pct"] for r in effects if isinstance(r.get(key), dict)]
@@ -330,6 +353,8 @@ _SEVERITY = {"error": 0, "refused": 1, "false_alarm": 2, "missed": 3, "wrong": 3
 
 
 def _rms_ratio(r) -> float:
+    """Extended over baseline RMS (noise-free) on the validation record (on the
+    third record with ``r["test"]``)."""
     base, ext = r.get("baseline"), r.get("extended")
     if isinstance(base, dict) and isinstance(ext, dict) and base["rms_clean_pct"] > 0:
         return ext["rms_clean_pct"] / base["rms_clean_pct"]
@@ -353,8 +378,9 @@ def worst(rows, n: int = 6, n_prediction: int = 4):
 def _brief(r) -> dict:
     out = {k: r.get(k) for k in ("seed", "truth", "unabsorbable_to_noise", "outcome", "named", "prediction")}
     out["inputs"] = f"{r['train']['input']}/{r['train']['start']} -> {r['validation']['input']}"
-    ratio = _rms_ratio(r)
+    ratio, third = _rms_ratio(r), _rms_ratio(r["test"])
     out["extended_over_baseline_rms"] = round(ratio, 3) if math.isfinite(ratio) else NOT_AVAILABLE
+    out["third_record_extended_over_baseline_rms"] = round(third, 3) if math.isfinite(third) else NOT_AVAILABLE
     if "message" in r:
         out["message"] = r["message"][:300]
     return out
@@ -377,12 +403,13 @@ def print_report(summary) -> None:
           f"excitation {api['excitation']}")
     print()
     print(f"{'seed':>4} {'truth':<26} {'u/σ':>6} {'train → validation':<36} {'named':<24} {'outcome':<20} "
-          f"{'base rms/max %':>14} {'ext rms/max %':>14} {'floor%':>6} {'eff%':>6}")
+          f"{'base rms/max %':>14} {'ext rms/max %':>14} {'floor%':>6} {'eff%':>6} {'3rd e/b':>7}")
     for r in rows:
         io = f"{r['train']['input']}/{r['train']['start']}→{r['validation']['input']}"
         print(f"{r['seed']:>4} {r['truth']:<26} {r['unabsorbable_to_noise']:6.2f} {io:<36} {_label(r):<24} "
               f"{r['outcome']:<20} {_fmt_errors(r.get('baseline')):>14} {_fmt_errors(r.get('extended')):>14} "
-              f"{r.get('validation_noise_floor_pct', math.nan):6.3f} {r.get('validation_effect_pct', math.nan):6.2f}")
+              f"{r.get('validation_noise_floor_pct', math.nan):6.3f} {r.get('validation_effect_pct', math.nan):6.2f} "
+              f"{_rms_ratio(r['test']):7.2f}")
     print()
     confusion = summary["confusion"]
     columns = sorted({c for row in confusion.values() for c in row})
@@ -413,6 +440,10 @@ def print_report(summary) -> None:
           f"'none' records")
     def pct(x):
         return f"{x:.2f} %" if isinstance(x, float) else str(x)
+    print(f"on a third record never given to the diagnosis: extended better on "
+          f"{s(p['test_record_effect_records_extended_better'])} effect records, worse on "
+          f"{s(p['test_record_effect_records_extended_worse'])}, and worse on "
+          f"{s(p['test_record_none_records_extended_worse'])} 'none' records")
     print(f"median validation RMS on effect records (against the measured record): baseline "
           f"{pct(p['median_baseline_rms_measured_pct_effect_records'])}, extended "
           f"{pct(p['median_extended_rms_measured_pct_effect_records'])} of range")
@@ -422,7 +453,7 @@ def print_report(summary) -> None:
         msg = f"  — {w['message']}" if "message" in w else ""
         print(f"  seed {w['seed']}: {w['truth']} (u/σ {w['unabsorbable_to_noise']}), {w['inputs']}: "
               f"{w['outcome']}, named {'|'.join(map(str, w['named']))}, ext/base RMS "
-              f"{w['extended_over_baseline_rms']}{msg}")
+              f"{w['extended_over_baseline_rms']} (third record {w['third_record_extended_over_baseline_rms']}){msg}")
 
 
 def _jsonable(x):

@@ -795,6 +795,8 @@ class Truth:
         RMS of (with effect − without) on the noise-free validation record after
         its settling window: the error of a model with the true hysteresis and
         no effect on the new input.
+    test_effect_rms_um : float
+        The same on the third record (``RecordPair.test``).
     """
 
     effect: str
@@ -809,6 +811,7 @@ class Truth:
     target_to_noise: float
     detectable: bool
     validation_effect_rms_um: float
+    test_effect_rms_um: float = 0.0
 
     def as_dict(self) -> dict:
         return dict(self.__dict__)
@@ -816,12 +819,25 @@ class Truth:
 
 @dataclass
 class RecordPair:
-    """A training and a validation record of one actuator, and the truth."""
+    """Records of one actuator and the truth.
+
+    Attributes
+    ----------
+    seed : int
+    train, validation : Record
+        The training record and a second record with another input shape.
+    truth : Truth
+    test : Record
+        A third record with a third input shape, also from rest: for scoring
+        a prediction on a record the diagnosis never saw, even when it was
+        given the validation record.
+    """
 
     seed: int
     train: Record
     validation: Record
     truth: Truth
+    test: Record = None
 
 
 def _settle(params, n_samples, sample_rate_hz):
@@ -862,8 +878,8 @@ def make_pair(seed: int, effect: str | None = None, *, n_samples: int | None = N
     leaves the others as they were (the same seed keeps its plant when only
     the length changes, for example).
     """
-    streams = [np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(6)]
-    r_plant, r_input, r_val, r_effect, r_noise, r_misc = streams
+    streams = [np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(7)]
+    r_plant, r_input, r_val, r_effect, r_noise, r_misc, r_test = streams
     if effect is None:
         effect = _EFFECT_CYCLE[int(seed) % len(_EFFECT_CYCLE)]
     if effect not in EFFECTS:
@@ -885,6 +901,10 @@ def make_pair(seed: int, effect: str | None = None, *, n_samples: int | None = N
     kind_val = others[r_val.integers(len(others))]
     timeline, params = _make_timeline(r_input, kind, n_train, fs, lo, hi, start)
     timeline_val, params_val = _make_timeline(r_val, kind_val, n_val, fs, lo, hi, "rest")
+    rest = [k for k in others if k != kind_val]
+    kind_test = rest[r_test.integers(len(rest))]
+    n_test = int(max(5000, min(n_train, round(n_train * r_test.uniform(0.5, 1.0)))))
+    timeline_test, params_test = _make_timeline(r_test, kind_test, n_test, fs, lo, hi, "rest")
 
     plain = _respond(plant, {"name": "none"}, timeline)
     travel = float(np.ptp(plain))
@@ -908,12 +928,15 @@ def make_pair(seed: int, effect: str | None = None, *, n_samples: int | None = N
     if effect == "delay":
         chosen["delay_s"] = chosen["delay_samples"] / fs
     clean_val = _respond(plant, chosen, timeline_val)
+    clean_test = _respond(plant, chosen, timeline_test)
 
     lsb = full_scale * travel / 2 ** bits if quantise else 0.0
     # what the effect costs the true hysteresis alone on the new input
     plain_val = _respond(plant, {"name": "none"}, timeline_val)
     settle_val = _settle(params_val, n_val, fs)
     effect_val = _rms((clean_val - plain_val)[settle_val:])
+    settle_test = _settle(params_test, n_test, fs)
+    effect_test = _rms((clean_test - _respond(plant, {"name": "none"}, timeline_test))[settle_test:])
 
     def measure(y, n):
         y = y + plant.sensor_offset_um + r_noise.normal(0.0, sigma, n)
@@ -926,8 +949,11 @@ def make_pair(seed: int, effect: str | None = None, *, n_samples: int | None = N
     ratio = unabsorbable / sigma
     truth = Truth(effect, chosen, plant.as_dict(), sigma, lsb, noise_fraction, effect_rms, unabsorbable, ratio,
                   target if strength is not None else 0.0, bool(strength is not None and ratio >= DETECTABLE_RATIO),
-                  effect_val)
-    return RecordPair(int(seed), train, validation, truth)
+                  effect_val, effect_test)
+    y_test = clean_test + plant.sensor_offset_um + r_test.normal(0.0, sigma, n_test)
+    test = Record(timeline_test.record_voltage_V(), np.round(y_test / lsb) * lsb if lsb else y_test,
+                  clean_test + plant.sensor_offset_um, fs, kind_test, params_test, "rest", settle_test)
+    return RecordPair(int(seed), train, validation, truth, test)
 
 
 def plant_from_dict(plant: dict) -> Plant:

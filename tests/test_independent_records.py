@@ -240,7 +240,7 @@ def test_same_seed_same_records_and_other_options_keep_the_plant(pairs):
 def test_records_look_like_the_rig(pairs, seed):
     p = pairs[seed]
     lo, hi = p.truth.plant["voltage_range_V"]
-    for record in (p.train, p.validation):
+    for record in (p.train, p.validation, p.test):
         assert 5000 <= record.voltage_V.size <= 30000
         assert record.voltage_V.min() >= lo - 1e-9 and record.voltage_V.max() <= hi + 1e-9
         # the input covers the range
@@ -249,7 +249,8 @@ def test_records_look_like_the_rig(pairs, seed):
     assert p.validation.voltage_V.size <= p.train.voltage_V.size
     assert p.train.sample_rate_hz == p.validation.sample_rate_hz
     assert p.train.sample_rate_hz in ir.SAMPLE_RATES_HZ
-    assert p.train.input_kind != p.validation.input_kind
+    assert len({p.train.input_kind, p.validation.input_kind, p.test.input_kind}) == 3
+    assert p.test.start == "rest" and p.test.sample_rate_hz == p.train.sample_rate_hz
     assert p.validation.start == "rest" and p.validation.voltage_V[0] == pytest.approx(lo)
     assert 0.001 <= p.truth.noise_fraction_of_range <= 0.005
 
@@ -257,7 +258,7 @@ def test_records_look_like_the_rig(pairs, seed):
 @pytest.mark.parametrize("seed", SEEDS)
 def test_noise_is_what_the_truth_says(pairs, seed):
     p = pairs[seed]
-    for record in (p.train, p.validation):
+    for record in (p.train, p.validation, p.test):
         error = record.displacement_um - record.clean_um
         lsb = p.truth.quantisation_step_um
         expected = math.sqrt(p.truth.noise_sigma_um ** 2 + lsb ** 2 / 12)
