@@ -130,10 +130,6 @@ def test_ssp_for_every_platform(tmp_path):
                 assert folders == {"linux64", "win64", "darwin64"}, member
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="RigSimulation._loop reads the plant FMU's output before fmi2DoStep, "
-                   "fmpy after it: the two agree only for a plant without output stages (a rate-independent "
-                   "hysteresis); with creep they differ by about 1e-5 relative.  Reading the plant after "
-                   "its step in _loop makes them equal bit for bit.")
 def test_ssp_equals_the_harness_for_an_extended_plant(tmp_path):
     from pysim.core.extended import ExtendedModel, StageSpec
 

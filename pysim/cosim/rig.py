@@ -360,7 +360,7 @@ class RigSimulation:
             # inverse: its output for the held reference ahead
             if compensated:
                 q_u[0] = c_ahead
-                if (q_set(qc, q_in, one, q_u) | q_get(qc, q_out, one, q_y) | q_step(qc, t, h, true)) > 1:
+                if (q_set(qc, q_in, one, q_u) | q_step(qc, t, h, true) | q_get(qc, q_out, one, q_y)) > 1:
                     raise _failure(q, q_u, q_y, t.value, "reference", c_ahead)
                 ff_next = q_y[0]
             else:
@@ -376,7 +376,9 @@ class RigSimulation:
             a = amp._step(a, c_cmd, alpha, max_change)
             # actuator (plant FMU) for the held voltage
             p_u[0] = c_amp
-            if (p_set(pc, p_in, one, p_u) | p_get(pc, p_out, one, p_y) | p_step(pc, t, h, true)) > 1:
+            # read after the step: the output at t + h (for an actuator with output stages the
+            # next sample; for the hysteresis alone the same value as before the step)
+            if (p_set(pc, p_in, one, p_u) | p_step(pc, t, h, true) | p_get(pc, p_out, one, p_y)) > 1:
                 raise _failure(p, p_u, p_y, t.value, "voltage", c_amp)
             act_next = p_y[0]
             # stage: ZOH step with the held actuator displacement
