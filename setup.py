@@ -12,7 +12,7 @@ from setuptools import find_namespace_packages, setup
 
 MAPPED = {"pysim.core.csrc": "fmu_src", "pysim.specs": "models",
           "pysim.identification.datasets": "data/measured"}
-C_SOURCES = ["*.c", "*.h", "plant/*.c", "plant/*.h", "inverse/*.c", "inverse/*.h"]
+C_SOURCES = ["*.c", "*.h", "*/*.c", "*/*.h"]        # the shared sources and one folder per FMU kind
 DATASETS = ["*/*.csv", "*/LICENSE", "*/SOURCE.md"]
 
 found = find_namespace_packages(include=["pysim", "pysim.*", "build_fmu", "build_fmu.*"],
