@@ -45,6 +45,11 @@ def test_demo_writes_plots_report_and_results(tmp_path):
     stage_hz = results["stage"]["minus3db_hz"]
     assert bandwidths["feedback"]["7.5"]["minus3db_normalised_hz"] < 0.2 * stage_hz
     assert results["monte_carlo"]["draws"] == 2
+    import zipfile
+
+    with zipfile.ZipFile(out / "rig.ssp") as ssp:
+        names = ssp.namelist()
+    assert "SystemStructure.ssd" in names and sum(n.endswith(".fmu") for n in names) == 6
     assert "Tracking errors" in result.stdout and "-3 dB bandwidth" in result.stdout
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no staging left behind
 

@@ -37,6 +37,10 @@ def register(subparsers) -> None:
     parser.add_argument("--points", type=int, default=30, help="sweep frequencies, 10 Hz to 2 kHz (default 30)")
     parser.add_argument("--monte-carlo", type=int, default=10, metavar="N",
                         help="compensators drawn around the identified one (default 10; 0: none)")
+    parser.add_argument("--ssp-platforms", nargs="+", default=None, metavar="PLATFORM",
+                        choices=["linux64", "win64", "darwin64"],
+                        help="binaries in the FMUs of rig.ssp (default: this machine's; give linux64 win64 "
+                             "darwin64 for an SSP to hand on)")
     parser.set_defaults(func=run)
 
 
@@ -100,6 +104,11 @@ def run(args) -> int:
                        "monte_carlo": None if monte_carlo is None else
                        {k: v for k, v in monte_carlo.items() if k != "runs"}}
             atomic_write_text(staging / "results.json", json.dumps(results, indent=2) + "\n")
+            progress.update(0, label="writing rig.ssp")
+            from pysim.cosim.ssp import write_rig_ssp
+
+            write_rig_ssp(rig, study.compensator, staging / "rig.ssp", "feedback+compensated",
+                          platforms=args.ssp_platforms)
     print(f"Compensator identified on the rig {rig.name}: {study.identification['samples']} samples, "
           f"fit RMS error {study.identification['fit_errors_pct']['rms_error_pct']:.3f} %")
     print()
@@ -118,7 +127,8 @@ def run(args) -> int:
             print(f"  Monte-Carlo {path}: e_rms median {s['rms_error_pct']['median']:.2f} % "
                   f"(5-95 %: {s['rms_error_pct']['p5']:.2f}-{s['rms_error_pct']['p95']:.2f})")
     print()
-    print(f"wrote {', '.join(list(FIGURES.values()) + ['report.md', 'results.json'])} to {out} "
+    print("rig.ssp: the rig (feedback + compensated) as connected FMUs, for fmpy.ssp.simulate_ssp or your tool")
+    print(f"wrote {', '.join(list(FIGURES.values()) + ['report.md', 'results.json', 'rig.ssp'])} to {out} "
           f"in {time.monotonic() - start:.1f} s")
     return 0
 
