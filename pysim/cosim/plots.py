@@ -232,7 +232,7 @@ def plot_rig_bode(results, path, stage=None, summary=None):
     return _save(fig, path)
 
 
-def plot_rig_tracking(runs, path, amplitude_um, periods: int = 2):
+def plot_rig_tracking(runs, path, amplitude_um, periods: int = 2, title: str | None = None):
     """Tracking error of the stage over time, every configuration, one amplitude."""
     fig = _figure(10.0, 4.8)
     ax = fig.subplots(1, 1)
@@ -247,11 +247,11 @@ def plot_rig_tracking(runs, path, amplitude_um, periods: int = 2):
     ax.set_ylabel("x_d − x at the stage (µm, symmetric log)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, ncol=2)
-    ax.set_title(f"Tracking error, x_d = {amplitude_um:g} µm · sin(2πt) + 37.5 µm")
+    ax.set_title(title or f"Tracking error, x_d = {amplitude_um:g} µm · sin(2πt) + 37.5 µm")
     return _save(fig, path)
 
 
-def plot_rig_loops(runs, path, amplitude_um, periods: int = 2):
+def plot_rig_loops(runs, path, amplitude_um, periods: int = 2, title: str | None = None):
     """Achieved against desired displacement over the last period, one panel
     per configuration: a straight diagonal is perfect tracking."""
     names = [name for name in _PATH_STYLE if (amplitude_um, name) in runs]
@@ -268,5 +268,5 @@ def plot_rig_loops(runs, path, amplitude_um, periods: int = 2):
         ax.set_xlabel("desired x_d (µm)")
         ax.grid(True, alpha=0.3)
     axes[0].set_ylabel("achieved x at the stage (µm)")
-    fig.suptitle(f"Desired against achieved displacement, A = {amplitude_um:g} µm, last period")
+    fig.suptitle(title or f"Desired against achieved displacement, A = {amplitude_um:g} µm, last period")
     return _save(fig, path)
