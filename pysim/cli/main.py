@@ -13,11 +13,12 @@ from __future__ import annotations
 import argparse
 import sys
 
-from pysim.cli.commands import bandwidth, demo, diagnose, identify, track
+from pysim.cli.commands import bandwidth, demo, diagnose, excite, identify, track
 from pysim.core.errors import PiezoMPIError
 from pysim.fmu.errors import ToolchainError
 
-COMMANDS = {"identify": identify, "demo": demo, "track": track, "bandwidth": bandwidth, "diagnose": diagnose}
+COMMANDS = {"identify": identify, "demo": demo, "track": track, "bandwidth": bandwidth, "diagnose": diagnose,
+            "excite": excite}
 
 
 def build_parser() -> argparse.ArgumentParser:

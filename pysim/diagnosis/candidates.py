@@ -1,58 +1,102 @@
-"""The candidate extensions of the MPI model, each fitted on the training part.
+"""The candidate causes of :mod:`pysim.diagnosis.diagnose` and their fits.
 
-Every candidate keeps the MPI hysteresis and adds one effect of the catalog of
-:mod:`pysim.diagnosis.diagnose`; every one is cheap because the model stays linear in
-the hysteresis parameters once the effect's own shape parameters are fixed:
+Every candidate is a *family*: a fixed structure (operator thresholds, the
+operator state at the start of the record, shape parameters such as a time
+constant or a delay) whose remaining parameters enter linearly, so the family
+can be refitted exactly on any subset of samples (the folds of the cross-
+validation) with :func:`pysim.identification.identify.identify`.  The shape
+parameters are searched once on the whole record by unconstrained least
+squares; the linear parameters are refitted on every training part.
 
+Every family is physically admissible by construction:
+
+``baseline``
+    The MPI model (n operators, eq. 13 thresholds over the record's range, the
+    operator state at the start estimated with the weights), invertible.
+``richer``
+    A richer rate-independent model: 2n operators, its own initial state.  A
+    cause is named only if it also beats this model, so a loop-shape error is
+    never blamed on dynamics.
 ``rate_dependence``
-    ``y = G[h]`` with G a first-order lag or a second-order stage (unit static
-    gain).  G is linear, so ``G[Φθ] = G[Φ]θ``: for given (τ) or (f, ζ) the fit
-    is a least-squares problem on filtered regressors.  The shape parameters
-    are searched on a grid and refined (Brent / Nelder-Mead) with unconstrained
-    least squares; the final fit is the exact constrained one of
-    :func:`pysim.identification.identify.identify`.  First or second order is chosen by BIC.
+    ``y = G[h]``: a first-order lag ``1/(τ s + 1)`` or a second-order stage
+    ``ω²/(s² + 2ζω s + ω²)`` after the hysteresis (stable, unit static gain),
+    chosen by BIC.
 ``delay``
-    ``y = D[h]``: every whole delay up to ``max_delay`` is scored at once from
-    one QR factorisation (shifting the output instead of the regressors), then
-    a fractional delay is refined around the best one.
+    ``y = D[h]``, a delay of ``d >= 0`` samples (fractions interpolate).
 ``creep``
-    ``y = h + Σ w_j C_j[u]``: first-order lags of the input with fixed time
-    constants spread two per decade from three samples to half the training
-    part; the weights enter linearly (extra regressors).  A logarithmic creep
-    law is a superposition of such modes.
+    ``y = h + Σ w_j C_j[u]`` with first-order modes ``C_j`` of the input, time
+    constants from three sample periods to a third of the record, two per
+    decade, and **non-negative** weights (in the direction of the actuator's
+    gain): a monotone, log-like step response, never cancelling modes.  The
+    hysteresis part is refitted with them, so the static gain stays the
+    measured one.
 ``drift``
-    ``y = h + p_1 t + p_2 t²``: a polynomial in time, extra regressors; the
-    degree (1 or 2) is the one that extrapolates best within the training part.
+    ``y = h + p_1 t (+ p_2 t²)``: a smooth trend in time (degree 1 or 2).
+``rate_dependent_hysteresis``
+    ``y = H[L[v]]``: a first-order low-pass *before* the hysteresis (loops that
+    widen with frequency).
+``slew_limit``
+    ``y = H[S[v]]``: the amplifier follows the command at most at a rate R.
 
-The prediction of every candidate comes from simulating the resulting
-:class:`pysim.core.extended.ExtendedModel` over the whole record, so the held-out
-part continues the state of the training part.
+The models of the last two are :class:`pysim.diagnosis.input_stages.InputStageModel`;
+the others are :class:`pysim.core.extended.ExtendedModel`.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.optimize
 
 from pysim.core.extended import (
     ExtendedModel,
+    ExtendedState,
     OutputStages,
     StageSpec,
     tustin_creep_mode,
     tustin_first_order,
     tustin_second_order,
 )
-from pysim.core.model import HysteresisModel
 from pysim.diagnosis.errors import DiagnosisError
-from pysim.identification.identify import IdentificationError, identify, regressors
+from pysim.diagnosis.input_stages import InputStageModel, apply_input_stage
+from pysim.identification.identify import IdentificationError, IdentificationResult, identify, regressors
 
-EFFECTS = ("rate_dependence", "creep", "delay", "drift")
-#: Training samples (the last before the split) on which shape parameters are searched.
-SEARCH_SAMPLES = 30000
-#: Samples before the search window from which the stages are run.
-SEARCH_PAD = 5000
+EFFECTS = ("rate_dependence", "creep", "delay", "drift", "rate_dependent_hysteresis", "slew_limit")
+#: Most rows the shape searches use (the last ones of the record).
+SEARCH_SAMPLES = 40000
+
+
+@dataclass
+class Family:
+    """A model structure whose remaining parameters are linear (see the module notes)."""
+
+    cause: str
+    n_operators: int
+    thresholds_V: np.ndarray
+    input_offset_V: float
+    initial_state: np.ndarray
+    parameters: dict = field(default_factory=dict)
+    stages: dict = field(default_factory=dict)
+    transform: OutputStages = None
+    extras: dict = field(default_factory=dict)
+    nonnegative: tuple = ()
+    extra_sign: float = 1.0
+    input_stage: tuple = None
+
+    @property
+    def complexity(self) -> int:
+        """Effect parameters besides the hysteresis (Occam's razor)."""
+        p = self.parameters
+        if self.cause == "rate_dependence":
+            return int(p.get("order", 1))
+        if self.cause == "creep":
+            return max(1, sum(1 for w in p.get("weights_um_per_V", []) if w > 0))
+        if self.cause == "drift":
+            return int(p.get("degree", 1))
+        if self.cause in ("delay", "rate_dependent_hysteresis", "slew_limit"):
+            return 1
+        return 0
 
 
 @dataclass
@@ -62,148 +106,129 @@ class CandidateFit:
     Attributes
     ----------
     cause : str
-        ``"baseline"`` or one of :data:`EFFECTS`.
-    model : ExtendedModel
-        The fitted model (a plain MPI model with no stages for the baseline).
+        ``"baseline"``, ``"richer"`` or one of :data:`EFFECTS`.
+    model : ExtendedModel or InputStageModel
+        The fitted model.
     prediction_um : ndarray
-        Its simulation over the whole record.
+        Its output over the whole record, from ``state``.
     parameters : dict
         The effect's parameters (units in the names).
+    state : ExtendedState
+        The state before the first sample (the estimated operator state, stages
+        at rest): ``model.simulate(voltage_V, state)`` gives ``prediction_um``.
+    result : IdentificationResult
+        The fit of the linear parameters (conditioning, identifiability).
+    family : Family
     """
 
     cause: str
-    model: ExtendedModel
+    model: object
     prediction_um: np.ndarray
     parameters: dict
+    state: ExtendedState = None
+    result: IdentificationResult = None
+    family: Family = None
 
     @property
     def complexity(self) -> int:
-        """Number of fitted effect parameters besides the hysteresis (Occam's razor)."""
-        p = self.parameters
-        if self.cause == "rate_dependence":
-            return int(p["order"])
-        if self.cause == "delay":
-            return 1
-        if self.cause == "creep":
-            return len(p["time_constants_s"])
-        if self.cause == "drift":
-            return int(p["degree"])
-        return 0
+        return self.family.complexity if self.family is not None else 0
 
 
 def _bic(sse: float, n: int, k: int) -> float:
     return n * math.log(max(sse, 1e-300) / n) + k * math.log(n)
 
 
+def _lsq_sse(A, y) -> float:
+    """Error sum of the unconstrained least-squares fit of y by A (normal
+    equations of the norm-scaled columns: cheap in a search loop)."""
+    scale = np.sqrt(np.einsum("ij,ij->j", A, A))
+    scale[scale == 0] = 1.0
+    As = A / scale
+    gram, rhs = As.T @ As, As.T @ y
+    try:
+        theta = np.linalg.solve(gram, rhs)
+    except np.linalg.LinAlgError:
+        theta = np.linalg.lstsq(gram, rhs, rcond=None)[0]
+    residual = y - As @ theta
+    return float(residual @ residual)
+
+
 class CandidateFitter:
-    """Fits the baseline MPI model and every candidate on one training part.
+    """Builds and fits every family on one record.
 
     Parameters
     ----------
     voltage_V, displacement_um : ndarray
-        The whole record.
+        The record.
     sample_period_s : float
-    warmup, split : int
-        Training samples are ``warmup … split − 1``; the rest is held out.
     n_operators, model, operator
         As in :func:`pysim.identification.identify.identify`.
-    name : str
-        Name of the fitted models.
+    name, description : str
+        Name and description of the fitted models.
     """
 
-    def __init__(self, voltage_V, displacement_um, sample_period_s: float, warmup: int, split: int, *,
-                 n_operators: int = 10, model: str = "mpi", operator: str = "osp",
-                 name: str = "extended_mpi", description: str = ""):
+    def __init__(self, voltage_V, displacement_um, sample_period_s: float, *, n_operators: int = 10,
+                 model: str = "mpi", operator: str = "osp", name: str = "extended_mpi", description: str = ""):
         self.v = np.asarray(voltage_V, dtype=float)
         self.y = np.asarray(displacement_um, dtype=float)
         self.T = float(sample_period_s)
-        self.warmup, self.split = int(warmup), int(split)
-        self.settings = {"n_operators": n_operators, "model": model, "operator": operator}
+        self.n = int(n_operators)
+        self.kind, self.operator = model, operator
         self.name, self.description = name, description
-        self.baseline_result = identify(self.v, self.y, warmup=self.warmup, fit_slice=slice(0, self.split),
-                                        **self.settings)
-        m = self.baseline_result.model
-        self.design, _ = regressors(self.v, m.thresholds_V, operator, m.input_offset_V, model == "mpi")
-        self.u = self.v - m.input_offset_V
-        self.n_train = self.split - self.warmup
-        # Shape parameters are searched on at most SEARCH_SAMPLES training
-        # samples (the last ones): enough to pin a few parameters down, and it
-        # bounds the search cost for long records.  The stages run from
-        # SEARCH_PAD samples earlier so that their start-up has died out.
-        rows = min(self.n_train, SEARCH_SAMPLES)
-        self._search_rows = slice(self.split - rows, self.split)
-        self._search_from = max(0, self.split - rows - SEARCH_PAD)
-        self._search_design = np.asfortranarray(self.design[self._search_from:self.split])
-
-    # ----------------------------------------------------------- helpers
-    @staticmethod
-    def _lsq_sse(A, y) -> float:
-        """Sum of squared errors of the unconstrained least-squares fit of y by A.
-
-        Solved through the normal equations of the norm-scaled columns: a
-        p × p system, far cheaper than a factorisation of the tall matrix in a
-        search loop; the error sum is quadratic in the parameters near the
-        optimum, so their small rounding error hardly moves it.  The final fits
-        are the exact ones of :func:`pysim.identification.identify.identify`.
-        """
-        scale = np.sqrt(np.einsum("ij,ij->j", A, A))
-        scale[scale == 0] = 1.0
-        As = A / scale
-        gram, rhs = As.T @ As, As.T @ y
+        self.cubic = model == "mpi"
+        self.baseline_result = identify(self.v, self.y, n_operators=self.n, model=model, operator=operator)
         try:
-            theta = np.linalg.solve(gram, rhs)
-        except np.linalg.LinAlgError:
-            theta = np.linalg.lstsq(gram, rhs, rcond=None)[0]
-        residual = y - As @ theta
-        return float(residual @ residual)
+            self.richer_result = identify(self.v, self.y, n_operators=2 * self.n, model=model, operator=operator)
+        except IdentificationError:
+            self.richer_result = self.baseline_result
+        self.u = self.v - self.baseline_result.model.input_offset_V
+        rows = min(self.v.size, SEARCH_SAMPLES)
+        self.search_rows = slice(self.v.size - rows, self.v.size)
+        gain = float(np.polyfit(self.v, self.y, 1)[0])
+        self.gain_sign = 1.0 if gain >= 0 else -1.0
+        self._designs = {}
+        self.period_samples = None
 
-    def _search_sse(self, stages: OutputStages) -> float:
-        """Training error of the unconstrained fit with ``stages`` after the
-        hysteresis, on the search window."""
-        columns = stages.apply_to_columns(self._search_design)
-        offset = self._search_from
-        rows = slice(self._search_rows.start - offset, self._search_rows.stop - offset)
-        return self._lsq_sse(columns[rows], self.y[self._search_rows])
+    # ------------------------------------------------------------ families
+    def base(self, which: str = "baseline") -> Family:
+        """The rate-independent family (``"baseline"``: n operators, ``"richer"``: 2n)."""
+        result = self.baseline_result if which == "baseline" else self.richer_result
+        m = result.model
+        return Family(which, m.n_operators, np.asarray(m.thresholds_V), m.input_offset_V,
+                      np.asarray(result.initial_state))
 
-    def _model(self, hysteresis: HysteresisModel, **stages) -> ExtendedModel:
-        hysteresis = hysteresis.with_parameters(name=self.name, description=self.description)
-        return ExtendedModel(hysteresis, StageSpec(sample_period_s=self.T, **stages))
+    def _design(self, base: Family) -> np.ndarray:
+        key = base.n_operators
+        if key not in self._designs:
+            A, _ = regressors(self.v, base.thresholds_V, self.operator, base.input_offset_V, self.cubic,
+                              initial_state=base.initial_state)
+            self._designs[key] = np.asfortranarray(A)
+        return self._designs[key]
 
-    def _finish(self, cause, result, parameters, **stages) -> CandidateFit:
-        model = self._model(result.model, **stages)
-        return CandidateFit(cause, model, model.simulate(self.v), parameters)
+    def _with(self, base: Family, cause: str, **changes) -> Family:
+        return Family(cause, base.n_operators, base.thresholds_V, base.input_offset_V, base.initial_state,
+                      **changes)
 
-    def _fit(self, warmup=None, **options):
-        return identify(self.v, self.y, warmup=self.warmup if warmup is None else warmup,
-                        fit_slice=slice(0, self.split), **self.settings, **options)
+    def _stage_sse(self, base: Family, stages: OutputStages) -> float:
+        columns = stages.apply_to_columns(self._design(base))
+        return _lsq_sse(columns[self.search_rows], self.y[self.search_rows])
 
-    # ---------------------------------------------------------- baseline
-    def baseline(self) -> CandidateFit:
-        return self._finish("baseline", self.baseline_result, {})
-
-    # --------------------------------------------------- rate dependence
-    def _sections_sse(self, sections) -> float:
-        return self._search_sse(OutputStages(sections))
-
-    def rate_dependence(self) -> CandidateFit:
+    def rate_dependence(self, base: Family) -> Family:
         T = self.T
-        rows = self._search_rows.stop - self._search_rows.start
+        rows = self.search_rows.stop - self.search_rows.start
         fs = 1.0 / T
-        # first order: τ from one sample to 1/20 of the search window (log grid, then Brent)
-        log_tau = np.linspace(0.0, math.log(max(2.0, rows / 20.0)), 16)
+        log_tau = np.linspace(0.0, math.log(max(2.0, rows / 20.0)), 14)
 
         def first(x):
-            return self._sections_sse([tustin_first_order(math.exp(x) * T, T)])
+            return self._stage_sse(base, OutputStages([tustin_first_order(math.exp(x) * T, T)]))
 
         scores = [first(x) for x in log_tau]
         i = int(np.argmin(scores))
         bounds = (log_tau[max(i - 1, 0)], log_tau[min(i + 1, log_tau.size - 1)])
-        refined = scipy.optimize.minimize_scalar(first, bounds=bounds, method="bounded",
-                                                 options={"xatol": 2e-3})
+        refined = scipy.optimize.minimize_scalar(first, bounds=bounds, method="bounded", options={"xatol": 2e-3})
         x1, sse1 = (refined.x, refined.fun) if refined.fun < scores[i] else (log_tau[i], scores[i])
 
-        # second order: natural frequency from 20 cycles per window to fs/3 (log grid, then Nelder-Mead)
-        log_f = np.linspace(math.log(max(fs / 3000.0, 20.0 * fs / rows)), math.log(fs / 3.0), 12)
+        log_f = np.linspace(math.log(max(fs / 3000.0, 20.0 * fs / rows)), math.log(fs / 3.0), 10)
         log_z = np.log([0.05, 0.15, 0.35, 0.7, 1.2])
         z_range = (math.log(0.005), math.log(5.0))
 
@@ -212,46 +237,36 @@ class CandidateFitter:
                     math.exp(min(max(x[1], z_range[0]), z_range[1])))
 
         def second(x):
-            return self._sections_sse([tustin_second_order(*clip(x), T)])
+            return self._stage_sse(base, OutputStages([tustin_second_order(*clip(x), T)]))
 
         sse2, a, b = min((second((a, b)), a, b) for a in log_f for b in log_z)
         refined = scipy.optimize.minimize(second, x0=[a, b], method="Nelder-Mead",
-                                          options={"xatol": 2e-3, "fatol": 1e-9 * sse2, "maxfev": 60,
+                                          options={"xatol": 2e-3, "fatol": 1e-9 * sse2, "maxfev": 50,
                                                    "initial_simplex": [[a, b], [a + 0.3, b], [a, b + 0.4]]})
         if refined.fun < sse2:
             sse2, (a, b) = refined.fun, refined.x
         f2, z2 = clip((a, b))
-
         if _bic(sse2, rows, 2) < _bic(sse1, rows, 1):
-            stages = {"resonance_hz": f2, "damping_ratio": z2}
-            parameters = {"order": 2, "natural_frequency_hz": f2, "damping_ratio": z2}
-            sections = [tustin_second_order(f2, z2, T)]
-        else:
-            tau = math.exp(x1) * T
-            stages = {"lag_time_constant_s": tau}
-            parameters = {"order": 1, "time_constant_s": tau}
-            sections = [tustin_first_order(tau, T)]
-        result = self._fit(column_transform=OutputStages(sections).apply_to_columns)
-        return self._finish("rate_dependence", result, parameters, **stages)
+            return self._with(base, "rate_dependence",
+                              parameters={"order": 2, "natural_frequency_hz": f2, "damping_ratio": z2},
+                              stages={"resonance_hz": f2, "damping_ratio": z2},
+                              transform=OutputStages([tustin_second_order(f2, z2, T)]))
+        tau = math.exp(x1) * T
+        return self._with(base, "rate_dependence", parameters={"order": 1, "time_constant_s": tau},
+                          stages={"lag_time_constant_s": tau},
+                          transform=OutputStages([tustin_first_order(tau, T)]))
 
-    # ------------------------------------------------------------- delay
-    def max_delay(self, period_samples: float = None) -> int:
-        """Longest delay searched (samples): 1/20 of the training part, at most
-        500, and for a periodic input at most a quarter period (a whole period
-        of delay would only replay the previous cycle)."""
-        limit = min(500, max(5, self.n_train // 20))
-        if period_samples:
-            limit = min(limit, max(1, int(period_samples / 4)))
-        return int(limit)
-
-    def delay(self, period_samples: float = None) -> CandidateFit:
-        dmax = self.max_delay(period_samples)
-        first = max(self.warmup, self._search_rows.start)
-        stop = self.split - dmax
-        if stop - first < self.design.shape[1] + 1:
-            raise IdentificationError("the training part is too short for the delay search")
-        # y[j + d] = (A θ)[j] for the same rows j: one QR for every d
-        Q, _ = np.linalg.qr(self.design[first:stop])
+    def delay(self, base: Family) -> Family:
+        A = self._design(base)
+        dmax = int(min(500, max(5, self.v.size // 40)))
+        if self.period_samples:
+            # a whole period of delay would only replay the previous cycle
+            dmax = min(dmax, max(1, int(self.period_samples / 4)))
+        first = self.search_rows.start
+        stop = self.v.size - dmax
+        if stop - first < A.shape[1] + 1:
+            first, stop = 0, self.v.size - dmax
+        Q, _ = np.linalg.qr(A[first:stop])
         sse = []
         for d in range(dmax + 1):
             target = self.y[first + d:stop + d]
@@ -259,64 +274,136 @@ class CandidateFitter:
         d_best = int(np.argmin(sse))
 
         def fractional(x):
-            return self._search_sse(OutputStages(delay_samples=x))
+            return self._stage_sse(base, OutputStages(delay_samples=x))
 
         refined = scipy.optimize.minimize_scalar(fractional, bounds=(max(0.0, d_best - 1.0), d_best + 1.0),
                                                  method="bounded", options={"xatol": 1e-3})
         delay = float(refined.x) if refined.fun < fractional(float(d_best)) else float(d_best)
-        result = self._fit(warmup=self.warmup + math.ceil(delay),
-                           column_transform=OutputStages(delay_samples=delay).apply_to_columns)
-        return self._finish("delay", result, {"delay_samples": delay, "delay_s": delay * self.T},
-                            delay_samples=delay)
+        delay = max(delay, 0.0)
+        return self._with(base, "delay", parameters={"delay_samples": delay, "delay_s": delay * self.T},
+                          stages={"delay_samples": delay}, transform=OutputStages(delay_samples=delay))
 
-    # ------------------------------------------------------------- creep
     def creep_time_constants_s(self) -> np.ndarray:
-        ratio = max(10.0, self.n_train / 6.0)
+        ratio = max(10.0, self.v.size / 9.0)
         count = int(math.ceil(2.0 * math.log10(ratio))) + 1
         return 3.0 * self.T * np.geomspace(1.0, ratio, count)
 
-    def creep(self) -> CandidateFit:
+    def creep(self, base: Family) -> Family:
         taus = self.creep_time_constants_s()
+        u = self.v - base.input_offset_V
         columns = {}
         for j, tau in enumerate(taus):
             alpha, beta = tustin_creep_mode(tau, self.T)
             mode = OutputStages(creep_alpha=[alpha], creep_beta=[beta], creep_weights=[1.0])
-            columns[f"creep_{j}"], _ = mode.run(np.zeros_like(self.u), self.u)
-        result = self._fit(extra_regressors=columns)
-        weights = tuple(result.extra_coefficients[f"creep_{j}"] for j in range(taus.size))
-        parameters = {"time_constants_s": taus.tolist(), "weights_um_per_V": list(weights)}
-        return self._finish("creep", result, parameters, creep_time_constants_s=tuple(taus.tolist()),
-                            creep_weights_um_per_V=weights)
+            column, _ = mode.run(np.zeros_like(u), u)
+            # the mode's lag behind the input: zero at rest, so the hysteresis keeps the static gain
+            columns[f"creep_{j}"] = self.gain_sign * (column - u)
+        return self._with(base, "creep", parameters={"time_constants_s": taus.tolist()},
+                          extras=columns, nonnegative=tuple(columns), extra_sign=self.gain_sign)
 
-    # ------------------------------------------------------------- drift
-    def drift(self) -> CandidateFit:
+    def drift(self, base: Family, degree: int) -> Family:
         time = np.arange(self.v.size) * self.T
-        scale = self.split * self.T          # keeps the columns of order one
-        # A drift model is judged by how it extrapolates: fitted on the first
-        # 70 % of the training part, each degree predicts the last 30 %; the
-        # quadratic must do clearly better (RMS below 0.8 of the line's), as it
-        # extrapolates a random wander in the baseline more wildly.
-        inner = self.warmup + int(0.7 * self.n_train)
-        best = None
-        for degree in (1, 2):
-            columns = {f"t{j}": (time / scale) ** j for j in range(1, degree + 1)}
-            probe = identify(self.v, self.y, warmup=self.warmup, fit_slice=slice(0, inner),
-                             extra_regressors=columns, **self.settings)
-            error = self.y[inner:self.split] - probe.prediction_um[inner:self.split]
-            score = float(np.sqrt(np.mean(error**2))) * (1.0 if degree == 1 else 1.0 / 0.8)
-            if best is None or score < best[0]:
-                best = (score, degree, columns)
-        _, degree, columns = best
-        result = self._fit(extra_regressors=columns)
-        coefficients = tuple(result.extra_coefficients[f"t{j}"] / scale**j for j in range(1, degree + 1))
-        parameters = {"degree": degree, "coefficients_um_per_s_power": list(coefficients)}
-        return self._finish("drift", result, parameters, drift_coefficients=coefficients)
+        scale = max(self.v.size * self.T, self.T)
+        columns = {f"t{j}": (time / scale) ** j for j in range(1, degree + 1)}
+        return self._with(base, "drift", parameters={"degree": degree, "time_scale_s": scale}, extras=columns)
 
-    def fit(self, cause: str, period_samples: float = None) -> CandidateFit:
-        """Fit one effect of :data:`EFFECTS` (``period_samples``: the input's
-        period, if periodic, which bounds the delay search)."""
-        if cause not in EFFECTS:
-            raise DiagnosisError(f"unknown effect {cause!r}; the catalog is {EFFECTS}")
+    def _input_sse(self, base: Family, kind: str, parameter: float) -> float:
+        x = apply_input_stage(kind, parameter, self.v, self.T)
+        A, _ = regressors(x, base.thresholds_V, self.operator, base.input_offset_V, self.cubic,
+                          initial_state=base.initial_state)
+        return _lsq_sse(A[self.search_rows], self.y[self.search_rows])
+
+    def _input_search(self, base: Family, kind: str, grid: np.ndarray) -> float:
+        scores = [self._input_sse(base, kind, math.exp(x)) for x in grid]
+        i = int(np.argmin(scores))
+        bounds = (grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)])
+        refined = scipy.optimize.minimize_scalar(lambda x: self._input_sse(base, kind, math.exp(x)),
+                                                 bounds=bounds, method="bounded",
+                                                 options={"xatol": 5e-3, "maxiter": 12})
+        return math.exp(refined.x if refined.fun < scores[i] else grid[i])
+
+    def rate_dependent_hysteresis(self, base: Family) -> Family:
+        rows = self.search_rows.stop - self.search_rows.start
+        grid = np.linspace(math.log(0.3 * self.T), math.log(max(3.0, rows / 20.0) * self.T), 12)
+        tau = self._input_search(base, "lowpass", grid)
+        return self._with(base, "rate_dependent_hysteresis",
+                          parameters={"input_time_constant_s": tau}, input_stage=("lowpass", tau))
+
+    def slew_limit(self, base: Family) -> Family:
+        fastest = float(np.max(np.abs(np.diff(self.v)))) / self.T
+        if not fastest > 0:
+            raise DiagnosisError("the input never changes: no slew limit can be fitted")
+        grid = np.linspace(math.log(fastest / 40.0), math.log(fastest), 12)
+        rate = self._input_search(base, "slew_limit", grid)
+        return self._with(base, "slew_limit", parameters={"rate_V_per_s": rate, "rate_V_per_ms": rate / 1e3},
+                          input_stage=("slew_limit", rate))
+
+    def family(self, cause: str, base: Family) -> Family:
+        """Search the shape parameters of ``cause`` on top of ``base``."""
+        if cause == "rate_dependence":
+            return self.rate_dependence(base)
         if cause == "delay":
-            return self.delay(period_samples)
-        return getattr(self, cause)()
+            return self.delay(base)
+        if cause == "creep":
+            return self.creep(base)
+        if cause == "rate_dependent_hysteresis":
+            return self.rate_dependent_hysteresis(base)
+        if cause == "slew_limit":
+            return self.slew_limit(base)
+        if cause == "drift":
+            return self.drift(base, 1)
+        raise DiagnosisError(f"unknown effect {cause!r}; the catalogue is {EFFECTS}")
+
+    # ------------------------------------------------------------- fitting
+    def operator_input(self, family: Family) -> np.ndarray:
+        if family.input_stage is None:
+            return self.v
+        return apply_input_stage(family.input_stage[0], family.input_stage[1], self.v, self.T)
+
+    def fit(self, family: Family, rows=None) -> IdentificationResult:
+        """The linear parameters of ``family`` fitted on ``rows`` (default: all)."""
+        return identify(self.operator_input(family), self.y, n_operators=family.n_operators, model=self.kind,
+                        operator=self.operator, thresholds_V=family.thresholds_V,
+                        input_offset_V=family.input_offset_V, initial_state=family.initial_state,
+                        column_transform=None if family.transform is None else family.transform.apply_to_columns,
+                        extra_regressors=family.extras or None, extra_nonnegative=family.nonnegative,
+                        fit_rows=rows, name=self.name, description=self.description)
+
+    def finish(self, family: Family, result: IdentificationResult) -> CandidateFit:
+        """The model of a fitted family, its state and prediction."""
+        parameters = dict(family.parameters)
+        stages = dict(family.stages)
+        if family.cause == "creep":
+            weights = [family.extra_sign * result.extra_coefficients[k] for k in family.extras]
+            parameters["weights_um_per_V"] = weights
+            # mode columns are (C_j[u] - u): the -Σw u part moves into a2
+            keep = [j for j, w in enumerate(weights) if w != 0.0]
+            taus = [parameters["time_constants_s"][j] for j in keep]
+            stages.update(creep_time_constants_s=tuple(taus), creep_weights_um_per_V=tuple(weights[j] for j in keep))
+            hysteresis = result.model.with_parameters(a2=result.model.a2 - float(sum(weights)))
+        elif family.cause == "drift":
+            scale = parameters["time_scale_s"]
+            coefficients = tuple(result.extra_coefficients[f"t{j}"] / scale**j
+                                 for j in range(1, parameters["degree"] + 1))
+            parameters["coefficients_um_per_s_power"] = list(coefficients)
+            stages["drift_coefficients"] = coefficients
+            hysteresis = result.model
+        else:
+            hysteresis = result.model
+        hysteresis = hysteresis.with_parameters(name=self.name, description=self.description)
+        plant = ExtendedModel(hysteresis, StageSpec(sample_period_s=self.T, **stages))
+        x = self.operator_input(family)
+        state = initial_extended_state(plant, x[0], result.initial_state)
+        model = plant if family.input_stage is None else InputStageModel(plant, family.input_stage[0],
+                                                                         family.input_stage[1], self.T)
+        prediction = model.simulate(self.v, state)
+        return CandidateFit(family.cause, model, prediction, parameters, state, result, family)
+
+
+def initial_extended_state(plant: ExtendedModel, voltage0_V: float, operators) -> ExtendedState:
+    """State of ``plant`` before a record whose first sample is ``voltage0_V``:
+    the given operator state, the stages at rest at the first sample."""
+    h = plant.hysteresis
+    operators = np.asarray(operators, dtype=float).copy()
+    h0 = h.simulate([voltage0_V], operators.copy())[0]
+    return ExtendedState(operators, plant.stages.runner.rest_state(h0, voltage0_V - h.input_offset_V), 0)

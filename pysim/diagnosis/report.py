@@ -299,29 +299,51 @@ def summary_markdown(d: Diagnosis) -> str:
     lines = [
         f"# Model discrepancy: {d.source or 'record'}",
         "",
-        f"**Cause named: `{d.cause}`.** {d.why}.",
+        f"**Cause named: `{d.cause}`.**" + (f" Named set: {', '.join(f'`{c}`' for c in d.causes)}."
+                                            if len(d.causes) > 1 else "") + f" {d.why}.",
         "",
-        "| held out | max error (% of range) | RMS error (% of range) |",
-        "| --- | ---: | ---: |",
-        f"| baseline MPI | {d.baseline.max_pct:.3f} | {d.baseline.rms_pct:.3f} |",
-        f"| extended ({d.extended.cause if d.cause != 'none' else 'none'}) | {d.extended.max_pct:.3f} | "
-        f"{d.extended.rms_pct:.3f} |",
+        "| model | cross-validated max error (% of range) | cross-validated RMS error (% of range) |"
+        + (" second record RMS (%) |" if d.validation else ""),
+        "| --- | ---: | ---: |" + (" ---: |" if d.validation else ""),
+    ]
+    for cause, rms, mx, gain, val in d.table():
+        label = {"baseline": "baseline MPI", "richer": "richer rate-independent"}.get(cause, cause)
+        lines.append(f"| {label} | {mx:.3f} | {rms:.3f} |" + (f" {val:.3f} |" if val is not None else ""))
+    lines += [
         "",
-        f"Gain: **{d.gain_pct:.1f} %** less held-out RMS error (`100 (1 − rms_after / rms_before)`).",
+        f"Extended model: `{d.extended.cause}`; gain **{d.gain_pct:.1f} %** less cross-validated RMS error "
+        "than the baseline (`100 (1 − rms_after / rms_before)`).",
         "",
-        "## Data and split",
+        "## Data and scoring",
         "",
-        f"- {split['n_samples']} samples at {ev['sample_rate_hz']:.6g} Hz; warm-up {split['warmup_samples']} samples "
-        f"(until the input has visited both ends of its range); training {split['train_samples']} samples, "
-        f"held out the last {split['heldout_samples']}"
-        + (f" (split on a whole number of input periods of {split['period_s']:.4g} s)" if split["period_s"] else "")
-        + ".",
-        f"- Noise level σ = {d.noise_um:.4g} µm ({ev['noise_pct']:.3g} % of the held-out range), from the "
-        f"sample-to-sample differences of the residuals (smallest over the baseline and the candidates).",
-        f"- A candidate is significant when it removes at least {NOISE_FRACTION} σ² of held-out mean-square "
-        f"error and at least {MIN_GAIN_PCT:.0f} % of the RMS error.",
+        f"- {split['n_samples']} samples at {ev['sample_rate_hz']:.6g} Hz; no warm-up: the operator state at the "
+        f"start is estimated with the weights"
+        + (f" ({ev['start_excluded_samples']} samples of a start transient no state explains were left out)"
+           if ev.get("start_excluded_samples") else "") + ".",
+        f"- Blocked cross-validation over {len(d.folds)} blocks: each block held out in turn, every model refitted "
+        f"on the others and scored where the input stays inside their range ({d.scored_samples} samples scored).",
+        f"- Noise level σ = {d.noise_um:.4g} µm ({ev['noise_pct']:.3g} % of the range), from the "
+        f"sample-to-sample differences of the residuals (smallest over all models).",
+        f"- A candidate is significant when it removes at least {NOISE_FRACTION} σ² of mean-square error and "
+        f"{MIN_GAIN_PCT:.0f} % of the RMS error against the baseline *and* the richer rate-independent model.",
         "",
-        "## Candidates (fitted on the training part, scored on the held-out part)",
+    ]
+    if d.validation:
+        lines += ["## Second record", "", d.validation["note"] + ".", "",
+                  "| model | RMS % | max % | offset µm | gain | timing (samples) |", "| --- | ---: | ---: | ---: | ---: | ---: |"]
+        for cause, row in d.validation["table"].items():
+            lines.append(f"| {cause} | {row['rms_pct']:.3f} | {row['max_pct']:.3f} | {row['offset_um']:+.4g} | "
+                         f"{row['gain']:.4g} | {row['timing_samples']:+d} |")
+        lines += ["", f"Cause by the second record: `{d.validation['cause']}`; by cross-validation alone: "
+                      f"`{d.cross_validation_cause}`.", ""]
+    if d.excitation is not None:
+        lines += ["## Excitation that separates the named set", "",
+                  f"`pysim excite {d.source or 'DATA.csv'} --out excitation.csv` writes {d.excitation.size} samples:", ""]
+        lines += [f"- samples {p['start_sample']}…{p['start_sample'] + p['samples'] - 1}: {p['purpose']}"
+                  for p in d.excitation_plan]
+        lines.append("")
+    lines += [
+        "## Candidates (cross-validated)",
         "",
         "| candidate | held-out RMS % | gain % | σ² removed | significant | evidence |",
         "| --- | ---: | ---: | ---: | :---: | --- |",

@@ -48,6 +48,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 from numpy.linalg import LinAlgError
 from scipy.linalg import cholesky, solve_triangular
 from scipy.optimize import least_squares, nnls
@@ -62,6 +63,9 @@ from pysim.identification.errors import IdentificationError
 MIN_TRAVEL_FRACTION = 0.5
 #: Alternating steps of the initial-state estimation (per start).
 STATE_ITERATIONS = 12
+#: Pivoted-QR tolerance below which an operator's column counts as a combination of the others
+#: (its weight is then tied to its neighbour's density).
+RANK_TOLERANCE = 1e-7
 _BIG = 1e12
 
 
@@ -403,6 +407,8 @@ def operator_travel(low, high, rows: slice, voltage_V=None) -> np.ndarray:
     lo, hi = low[rows], high[rows]
     fixed = np.isclose(lo, hi, rtol=0.0, atol=1e-9 * max(1.0, float(np.max(np.abs(hi)))))
     steps = np.abs(np.diff(lo, axis=0)) * (fixed[1:] & fixed[:-1])
+    if not isinstance(rows, slice):
+        steps[np.diff(np.asarray(rows)) != 1] = 0.0        # no travel across a gap between blocks
     if voltage_V is not None:
         steps[: first_reversal(np.asarray(voltage_V)[rows])] = 0.0
     return steps.sum(axis=0)
@@ -445,7 +451,8 @@ def _reversal_check(v, rows, where):
 def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = "mpi",
              operator: str = "osp", thresholds_V=None, warmup="auto", fit_slice: slice = None,
              min_slope_fraction: float = 0.01, extra_regressors: dict = None, extra_nonnegative=(),
-             column_transform=None, initial_state=None, merge_unexcited: bool = True, name: str = None,
+             column_transform=None, initial_state=None, merge_unexcited: bool = True, fit_rows=None,
+             input_offset_V: float = None, name: str = None,
              description: str = "") -> IdentificationResult:
     """Fit an MPI or CPI model to a measured record.
 
@@ -492,6 +499,11 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     merge_unexcited : bool
         Tie the weight of operators the fitted samples do not excite to their
         lower neighbour's density (default) instead of fitting it freely.
+    fit_rows : array_like of int, optional
+        Fit only these samples (e.g. every block of a record but one) instead
+        of ``fit_slice``; the model still runs over the whole record.
+    input_offset_V : float, optional
+        Input shift (default: the bottom of the fitted samples' range).
     name, description : str
         Stored in the model.
 
@@ -536,12 +548,18 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     if stop - first < 2:
         raise IdentificationError(f"{max(stop - first, 0)} samples to fit (after a warm-up of {start})")
     rows = slice(first, stop)
+    if fit_rows is not None:
+        rows = np.unique(np.asarray(fit_rows, dtype=int).ravel())
+        if rows.size < 2 or rows[0] < 0 or rows[-1] >= v.size:
+            raise IdentificationError(f"fit_rows must hold at least 2 sample indices in 0..{v.size - 1}")
+        first, stop = int(rows[0]), int(rows[-1]) + 1
     lo, hi = float(v[rows].min()), float(v[rows].max())
     if not hi > lo:
         raise IdentificationError(f"the voltage is constant over samples {first}..{stop - 1}: nothing to identify")
     # u = v - lo for both kinds: the cubic a1 u^3 about the bottom of the range
     # is what makes loops asymmetric (about the centre it would be odd-symmetric)
-    input_offset = lo
+    input_offset = lo if input_offset_V is None else float(input_offset_V)
+    n_rows = (stop - first) if fit_rows is None else rows.size
     r = (eq13_thresholds(n_operators, hi - lo, operator) if thresholds_V is None
          else np.asarray(thresholds_V, dtype=float))
     cubic = model == "mpi"
@@ -555,9 +573,9 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     if unknown:
         raise IdentificationError(f"extra_nonnegative names no extra regressor: {sorted(unknown)}")
     n_params_hint = (2 if cubic else 1) + int(np.count_nonzero(r)) + 1 + len(extras)
-    if stop - first < n_params_hint + 1:
+    if n_rows < n_params_hint + 1:
         raise IdentificationError(
-            f"{stop - first} samples to fit (after a warm-up of {start}) but the model has {n_params_hint} "
+            f"{n_rows} samples to fit (after a warm-up of {start}) but the model has {n_params_hint} "
             f"parameters: need at least {n_params_hint + 1}")
     _reversal_check(v, rows, f"{first}..{stop - 1}")
 
@@ -582,18 +600,19 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
             f"no operator is excited over samples {first}..{stop - 1}: the input never travels more than "
             f"the smallest threshold ({float(np.min(r[r > 0])):.4g} V) in one direction after a reversal; "
             "record at least one rise and fall over most of the range")
-    own = [i for i in range(r.size) if anchor[i] == i]
-    not_identifiable = tuple(int(i) for i in range(r.size) if r[i] > 0 and anchor[i] != i)
-
-    # column layout: [u^3] u  group_1 … group_m  1  extras
     n_lin = 2 if cubic else 1
-    operator_columns = [-1] * r.size
-    for j, i in enumerate(own):
-        operator_columns[i] = n_lin + j
-    column_of = {i: n_lin + j for j, i in enumerate(own)}
-    n_hyst = n_lin + len(own) + 1
-    names = (["a1 u³"] if cubic else []) + ["a2 u"] + [f"operator {i + 1} (r = {r[i]:.4g} V)" for i in own] \
-        + ["offset"] + [f"extra {k!r}" for k in extras]
+
+    def layout():
+        """Column layout: [u^3] u  group_1 … group_m  1  extras."""
+        own = [i for i in range(r.size) if anchor[i] == i]
+        not_identifiable = tuple(int(i) for i in range(r.size) if r[i] > 0 and anchor[i] != i)
+        column_of = {i: n_lin + j for j, i in enumerate(own)}
+        n_hyst = n_lin + len(own) + 1
+        names = (["a1 u³"] if cubic else []) + ["a2 u"] + [f"operator {i + 1} (r = {r[i]:.4g} V)" for i in own] \
+            + ["offset"] + [f"extra {k!r}" for k in extras]
+        return own, not_identifiable, column_of, n_hyst, names
+
+    own, not_identifiable, column_of, n_hyst, names = layout()
 
     # Only the window's rows are fitted; the state matters only where an
     # operator has not yet forgotten it (low < high): the "transient" rows.
@@ -614,6 +633,29 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
                 A[:, column_of[anchor[i]]] += factor[i] * ops[:, i]
         A[:, n_hyst - 1] = 1.0
         return A
+
+    # Operators whose columns the fitted samples make linearly dependent on the
+    # others (few distinct input levels, as in steps) are tied to their lower
+    # neighbour as well, the widest first, until the columns are independent.
+    spacing = np.diff(np.concatenate(([0.0], r)))
+    for _ in range(r.size):
+        probe_matrix = design(state0, low_w, high_w, u_w)
+        norms = np.linalg.norm(probe_matrix, axis=0)
+        norms[norms == 0] = 1.0
+        _, R_probe, pivots = scipy.linalg.qr(probe_matrix / norms, mode="economic", pivoting=True)
+        diagonal = np.abs(np.diag(R_probe))
+        rank = int(np.count_nonzero(diagonal > RANK_TOLERANCE * diagonal[0]))
+        dependent_ops = [i for i in own if column_of[i] in set(pivots[rank:].tolist())]
+        if rank == n_hyst or not dependent_ops:
+            break
+        i = max(dependent_ops, key=lambda j: r[j])
+        lower = [j for j in own if j < i]
+        anchor[i] = lower[-1] if lower else -1
+        factor[i] = spacing[i] / spacing[anchor[i]] if lower and spacing[anchor[i]] > 0 else 1.0
+        for k in range(r.size):
+            if k != i and anchor[k] == i:        # operators tied to i follow it
+                anchor[k], factor[k] = anchor[i], factor[k] * factor[i]
+        own, not_identifiable, column_of, n_hyst, names = layout()
 
     effective_columns = [column_of.get(int(anchor[i]), -1) if anchor[i] >= 0 else -1 for i in range(r.size)]
     n_params = n_hyst + len(extras)
@@ -767,17 +809,29 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
             except IdentificationError:
                 pass
         best = None
+        failure = None
         for state, _ in starts:
-            A, theta, active, condition, sse = solve(state)
+            # a start (or a step) that leaves an operator constant makes its column
+            # collinear with the offset: that start or step is dropped
+            try:
+                A, theta, active, condition, sse = solve(state)
+            except IdentificationError as exc:
+                failure = exc
+                continue
             for _ in range(STATE_ITERATIONS):
                 candidate = polish_state(refine_state(state, A, theta), theta)
-                A2, theta2, active2, condition2, sse2 = solve(candidate)
+                try:
+                    A2, theta2, active2, condition2, sse2 = solve(candidate)
+                except IdentificationError:
+                    break
                 if sse2 < sse * (1.0 - 1e-4):
                     state, A, theta, active, condition, sse = candidate, A2, theta2, active2, condition2, sse2
                 else:
                     break
             if best is None or sse < best[-1]:
                 best = (state, A, theta, active, condition, sse)
+        if best is None:
+            raise failure
         state0, _, theta, active, condition, sse = best
     else:
         _, theta, active, condition, sse = solve(state0)
@@ -807,7 +861,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     prediction = A @ theta
     merged = {int(i): int(anchor[i]) for i in not_identifiable if anchor[i] >= 0}
     return IdentificationResult(
-        model=identified, warmup_samples=start, fit_slice=rows, prediction_um=prediction,
+        model=identified, warmup_samples=start, prediction_um=prediction,
+        fit_slice=rows if isinstance(rows, slice) else slice(first, stop),
         errors=error_measures(y[rows], prediction[rows]), constraints_active=active,
         extra_coefficients=extra_coefficients, objective=sse, initial_state=np.asarray(state0, dtype=float),
         initial_state_estimated=bool(estimate), not_identifiable_operators=not_identifiable,

@@ -13,11 +13,13 @@ from pysim.cli.errors import UserError
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "diagnose", help="name what the MPI model misses on measured data and measure the gain of a fix",
-        description="Fit the MPI model on the first part of a record, analyse its held-out residual "
-                    "(against time, input rate, time since the last input change, cross-correlation, "
-                    "spectrum), fit every candidate extension (rate_dependence, creep, delay, drift), "
-                    "name the cause that lowers the held-out error significantly (or none) and report "
-                    "the held-out errors before and after.")
+        description="Fit the MPI model on every sample (the operator state at the start estimated), fit "
+                    "every candidate extension (rate_dependence, creep, delay, drift, "
+                    "rate_dependent_hysteresis, slew_limit) and a richer rate-independent model, score them "
+                    "by blocked cross-validation (and on a second record with --validate), name the cause "
+                    "that beats both rate-independent models significantly -- a set when several explain "
+                    "the residual equally well, 'unexplained' when none explains most of it, or none -- and "
+                    "report the errors before and after.")
     parser.add_argument("data", help="measured data file")
     parser.add_argument("--json", action="store_true",
                         help='print {"cause", "evidence", "baseline", "extended", "gain_pct"} as JSON')
@@ -28,10 +30,15 @@ def register(subparsers) -> None:
     parser.add_argument("--operator", choices=("osp", "play"), default="osp",
                         help="one-sided play (paper, default) or classical play operators")
     parser.add_argument("--model", choices=("mpi", "cpi"), default="mpi", help="hysteresis model (default mpi)")
+    parser.add_argument("--validate", metavar="OTHER",
+                        help="a second record of the same actuator with another input (same layout and sample "
+                             "rate): every model is scored on it and the cause is named by it")
     parser.add_argument("--train-fraction", type=float, default=0.65, metavar="F",
-                        help="share of the samples after the warm-up used for training (default 0.65)")
+                        help="where the report's plots shade a held-out part (default 0.65); the scores are "
+                             "cross-validated")
     parser.add_argument("--warmup", default="auto",
-                        help="samples left out at the start, or 'auto' (until the input has visited both ends)")
+                        help="'auto' (default: no warm-up, the initial operator state is estimated) or a number "
+                             "of samples the plots treat as warm-up")
     add_data_options(parser)
     parser.set_defaults(func=run)
 
@@ -63,16 +70,20 @@ def run(args) -> int:
             raise UserError(f"{args.report}: exists and is not a folder")
         _check_output(str(report.resolve()), "report")
     data = load_data(args)
+    other = load_data(args, args.validate) if args.validate else None
     warmup = "auto" if args.warmup == "auto" else int(args.warmup)
     result = diagnose(data.voltage_V, data.displacement_um, data.sample_rate_hz, time_s=data.time_s,
                       n_operators=args.operators, model=args.model, operator=args.operator,
-                      train_fraction=args.train_fraction, warmup=warmup, name=name, source=data.source)
+                      train_fraction=args.train_fraction, warmup=warmup, name=name, source=data.source,
+                      validate=None if other is None else (other.voltage_V, other.displacement_um,
+                                                           other.sample_rate_hz),
+                      validate_source="" if other is None else other.source)
     if args.report:
         from pysim.diagnosis.report import write_report
 
         write_report(result, args.report)
     if args.out:
-        write_spec(result.extended.model, args.out, header=_spec_header(result))
+        write_spec(spec_model(result.extended.model), args.out, header=_spec_header(result))
     if args.json:
         print(json.dumps(result.as_json(), indent=2))
     else:
@@ -80,28 +91,46 @@ def run(args) -> int:
     return 0
 
 
+def spec_model(model):
+    """The part of a fitted model a spec file can hold (an input stage cannot be)."""
+    return getattr(model, "plant", model)
+
+
 def _spec_header(result) -> str:
-    m = result.extended.model
+    m = spec_model(result.extended.model)
+    stage = result.extended.model
+    note = (f"\nThe named cause is an input stage ({stage.kind}, {stage.parameter:.6g}) before the hysteresis; "
+            "a spec holds only the hysteresis and output stages, so it is not part of this file."
+            if stage is not m else "")
     return (f"MPI model with output stages ({result.cause}) identified from {Path(result.source).name} by "
             f"pysim diagnose.\n\nHeld-out errors (% of range): baseline max {result.baseline.max_pct:.3f}, "
             f"RMS {result.baseline.rms_pct:.3f}; extended max {result.extended.max_pct:.3f}, RMS "
             f"{result.extended.rms_pct:.3f} (gain {result.gain_pct:.1f} %).\n"
             f"The stages run at the sample period {m.sample_period_s:.9g} s: an FMU built from this spec "
-            f"must step at that period.")
+            f"must step at that period." + note)
 
 
 def format_text(result, report, out) -> str:
-    lines = [f"{result.source}: cause {result.cause}",
+    named = result.cause if len(result.causes) <= 1 else f"{result.cause} (set: {', '.join(result.causes)})"
+    lines = [f"{result.source}: cause {named}",
              f"  {result.why}.",
              "",
-             "  held out            max %     RMS %",
-             f"  baseline MPI   {result.baseline.max_pct:9.3f} {result.baseline.rms_pct:9.3f}",
-             f"  extended       {result.extended.max_pct:9.3f} {result.extended.rms_pct:9.3f}"
-             f"   gain {result.gain_pct:.1f} %",
-             "",
-             "  candidates:"]
+             "  cross-validated     max %     RMS %" + ("   second record RMS %" if result.validation else ""),
+             ]
+    for cause, rms, mx, gain, val in result.table():
+        label = {"baseline": "baseline MPI", "richer": "richer RI"}.get(cause, cause)
+        lines.append(f"  {label:<27.27s} {mx:9.3f} {rms:9.3f}" + (f" {val:12.3f}" if val is not None else ""))
+    lines += [f"  extended ({result.extended.cause}): gain {result.gain_pct:.1f} %", "", "  candidates:"]
     for cause, text in result.reasons.items():
         lines.append(f"    {cause}: {text}")
+    if result.validation:
+        table = result.validation["table"]["baseline"]
+        lines.append(f"\n  second record (baseline re-fit: offset {table['offset_um']:+.4g} µm, gain {table['gain']:.4g}, "
+                     f"timing {table['timing_samples']:+d} samples): cause {result.validation['cause']}; "
+                     f"cross-validation alone: {result.cross_validation_cause}")
+    if result.excitation is not None:
+        lines.append(f"\n  {len(result.causes)} causes explain the residual equally well: write the separating "
+                     f"excitation with `pysim excite {result.source}`")
     if report:
         lines.append(f"\n  report: {Path(report) / 'summary.md'}")
     if out:

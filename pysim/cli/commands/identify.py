@@ -20,8 +20,8 @@ def add_data_options(parser) -> None:
                        help="sample rate when the file has no time column")
 
 
-def load_data(args):
-    """Load ``args.data`` with the layout options of :func:`add_data_options`."""
+def load_data(args, path=None):
+    """Load ``args.data`` (or ``path``) with the layout options of :func:`add_data_options`."""
     from pysim.identification.data import load_measured
 
     def column(value):
@@ -30,7 +30,7 @@ def load_data(args):
         return int(value) if re.fullmatch(r"\d+", value) else value
 
     return load_measured(
-        args.data, time_column=column(args.time_column), voltage_column=column(args.voltage_column),
+        args.data if path is None else path, time_column=column(args.time_column), voltage_column=column(args.voltage_column),
         displacement_column=column(args.displacement_column), header=not args.no_header,
         delimiter=args.delimiter, sample_rate_hz=args.sample_rate)
 

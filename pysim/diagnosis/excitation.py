@@ -1,0 +1,139 @@
+"""Excitations that separate causes a record cannot tell apart.
+
+On a single sine, a delay, a lag after the hysteresis, a low-pass before it
+and creep all look like a phase shift; a slow drift looks like a loop that
+does not close.  :func:`separating_excitation` writes a voltage record, within
+the actuator's range, made of the parts that pull them apart:
+
+- a **slow full-range cycle** at the start and the same at the end: the
+  hysteresis is identified on it, and a drift shows as the gap between the two;
+- **sines at several frequencies** (from a few hundred samples per period to
+  about twenty) at a large and a small amplitude: a delay's phase grows in
+  proportion to the frequency while a lag's saturates and its amplitude drops;
+  a low-pass before the hysteresis changes the loop's *shape* with frequency
+  and amplitude, a lag after it only scales and shifts it; a slew limit only
+  bites on the large, fast ones;
+- **steps held long** (to several levels, up and down): creep keeps moving for
+  decades of time during a hold, dynamics and delays settle within a few time
+  constants, a slew limit turns the step into a ramp.
+
+Only the parts that concern the causes in question are included (the two
+slow cycles always are); every part starts and ends where the previous one
+left the input, so the record has no jumps except the steps.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pysim.diagnosis.errors import DiagnosisError
+
+_FREQUENCY_CAUSES = {"delay", "rate_dependence", "rate_dependent_hysteresis", "slew_limit"}
+
+
+def _ramp(a, b, n):
+    return np.linspace(a, b, max(int(n), 2))
+
+
+def separating_excitation(causes, voltage_range_V, sample_rate_hz: float, n_samples: int = 20000,
+                          candidates: dict = None):
+    """Voltage record (V) that separates ``causes``, and its plan.
+
+    Parameters
+    ----------
+    causes : iterable of str
+        The causes to separate (names of the diagnosis catalogue).
+    voltage_range_V : (float, float)
+        The actuator's range: the record stays inside it.
+    sample_rate_hz : float
+        Sample rate the record is played at.
+    n_samples : int
+        Length of the record (at least 2000).
+    candidates : dict, optional
+        Cause → fitted parameters; creep time constants set the hold length.
+
+    Returns
+    -------
+    voltage_V : ndarray
+    plan : list of dict
+        ``{"purpose", "start_sample", "samples"}`` for every part.
+
+    Examples
+    --------
+    >>> v, plan = separating_excitation(["delay", "rate_dependence"], (0.0, 100.0), 1000.0, 8000)
+    >>> v.size, bool(v.min() >= 0.0 and v.max() <= 100.0), [p["purpose"].split(":")[0] for p in plan]
+    (8000, True, ['slow full-range cycle', 'sines at several frequencies and two amplitudes', 'slow full-range cycle'])
+    """
+    causes = set(causes)
+    lo, hi = (float(x) for x in voltage_range_V)
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+        raise DiagnosisError(f"voltage range must be finite with low < high, got {voltage_range_V}")
+    if not (math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
+        raise DiagnosisError(f"sample rate must be a positive number of Hz, got {sample_rate_hz}")
+    n_samples = int(n_samples)
+    if n_samples < 2000:
+        raise DiagnosisError(f"an excitation needs at least 2000 samples, got {n_samples}")
+    span, mid = hi - lo, 0.5 * (lo + hi)
+    parts = [("slow full-range cycle: identifies the hysteresis; compared with the last one it shows drift",
+              1.0, "cycle")]
+    if causes & _FREQUENCY_CAUSES:
+        parts.append(("sines at several frequencies and two amplitudes: a delay's phase grows with frequency, a "
+                      "lag's saturates; a low-pass before the hysteresis reshapes the loops; a slew limit bites "
+                      "only on large fast ones", 2.0, "sines"))
+    if "creep" in causes or "slew_limit" in causes or "drift" in causes or len(causes & _FREQUENCY_CAUSES) < 2:
+        parts.append(("steps held long: creep keeps moving during a hold, dynamics and delays settle, a slew "
+                      "limit turns a step into a ramp", 2.0, "steps"))
+    parts.append(("slow full-range cycle: the same as the first; a gap between them is drift", 1.0, "cycle"))
+    weights = np.array([w for _, w, _ in parts])
+    lengths = np.floor(weights / weights.sum() * n_samples).astype(int)
+    lengths[-1] += n_samples - lengths.sum()
+    pieces, plan, start, level = [], [], 0, lo
+    taus = (candidates or {}).get("creep", {}).get("time_constants_s", [])
+    for (purpose, _, kind), n in zip(parts, lengths):
+        if kind == "cycle":
+            a = int(n * 0.45)
+            piece = np.concatenate((_ramp(level, lo, n - 2 * a), _ramp(lo, hi, a), _ramp(hi, lo, a)))[:n]
+        elif kind == "sines":
+            piece = _sines(n, sample_rate_hz, lo, span, mid, level)
+        else:
+            piece = _steps(n, sample_rate_hz, lo, span, level, taus)
+        piece = np.clip(piece[:n], lo, hi)
+        if piece.size < n:
+            piece = np.concatenate((piece, np.full(n - piece.size, piece[-1])))
+        pieces.append(piece)
+        plan.append({"purpose": purpose, "start_sample": int(start), "samples": int(n)})
+        start += n
+        level = float(piece[-1])
+    return np.concatenate(pieces), plan
+
+
+def _sines(n, fs, lo, span, mid, level):
+    """Bursts of sines at five frequencies (fs/400 … fs/20), large then small amplitude."""
+    frequencies = np.geomspace(fs / 400.0, fs / 20.0, 5)
+    amplitudes = (0.45 * span, 0.15 * span)
+    bursts = [(f, a) for f in frequencies for a in amplitudes]
+    each = max(n // len(bursts), 20)
+    out = []
+    for f, a in bursts:
+        k = np.arange(each)
+        lead = min(each // 5, 50)
+        burst = mid + a * np.sin(2 * np.pi * f * k / fs)
+        # fade in and out so the input starts and ends at the centre without a jump
+        envelope = np.clip(np.minimum(k, each - 1 - k) / max(lead, 1), 0.0, 1.0)
+        burst = mid + (burst - mid) * envelope
+        out.append(burst)
+    piece = np.concatenate(out)
+    ease = _ramp(level, mid, min(50, n // 10))
+    return np.concatenate((ease, piece))[:n]
+
+
+def _steps(n, fs, lo, span, level, taus):
+    """Steps to alternating high and low levels, each held long."""
+    levels = lo + span * np.array([0.85, 0.25, 0.95, 0.1, 0.6, 0.05])
+    hold = n // len(levels)
+    if len(taus):
+        hold = int(min(hold, max(3 * max(taus) * fs, hold // 2)))
+    out = [np.full(hold, x) for x in levels]
+    piece = np.concatenate(out)
+    return np.concatenate((piece, np.full(max(n - piece.size, 0), levels[-1])))
