@@ -499,3 +499,27 @@ def test_windows_dll_under_wine_gives_the_linux_numbers_bit_for_bit(windows_fmus
     for found in checks:
         assert "# replay from deserialized state identical" in found
         assert "# replay from saved state identical" in found
+
+
+@pytest.mark.parametrize("name", ["amplifier", "controller", "sensor", "stage", "lti_discrete", "gain"])
+def test_sources_compile_without_warnings(tmp_path, name):
+    """-Wall -Wextra -Wpedantic -Werror with gcc, clang and zig for every target."""
+    import subprocess
+
+    from pysim.core.toolchain import zig_cc
+    from pysim.fmu.compile import PLATFORMS, fmi_include_dir
+    from pysim.fmu.rig_parts import part_sources
+
+    for path, data in part_sources(_parts()[name], "0").items():
+        if path.startswith("sources/"):
+            (tmp_path / path[len("sources/"):]).write_bytes(data)
+    compilers = [["gcc"], ["clang"]] + [zig_cc() + ["-target", target] for p in PLATFORMS.values()
+                                        for target in p.targets]
+    for compiler in compilers:
+        if not shutil.which(compiler[0]):
+            continue
+        result = subprocess.run(compiler + ["-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror",
+                                            "-ffp-contract=off", "-I", str(tmp_path), "-I", str(fmi_include_dir()),
+                                            "-c", str(tmp_path / "all.c"), "-o", str(tmp_path / "all.o")],
+                                capture_output=True, text=True, cwd=tmp_path)
+        assert result.returncode == 0 and not result.stderr.strip(), (compiler, result.stderr)
