@@ -244,6 +244,8 @@ class SensorNoise:
 
     def __post_init__(self):
         object.__setattr__(self, "rms_um", _finite("noise rms_um", self.rms_um, non_negative=True))
+        if not isinstance(self.seed, int) or abs(self.seed) > 2 ** 53:
+            raise ModelError(f"noise seed must be a whole number of at most 2^53 in size, got {self.seed!r}")
 
     def generator(self) -> XorShiftNormal:
         return XorShiftNormal(self.seed)

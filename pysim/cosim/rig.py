@@ -166,7 +166,9 @@ class _Stage:
             self.A = self.B = self.C = []
             self.D = 1.0
         else:
-            d = discretise(system, step_s, method="zoh")
+            import control
+
+            d = control.ss(discretise(system, step_s, method="zoh"))      # a discrete tf as state space
             self.A = np.asarray(d.A, dtype=float).tolist()
             self.B = np.asarray(d.B, dtype=float).ravel().tolist()
             self.C = np.asarray(d.C, dtype=float).ravel().tolist()
@@ -383,7 +385,7 @@ class RigSimulation:
             act_next = p_y[0]
             # stage: ZOH step with the held actuator displacement
             if rows:
-                z = [sum(A[i][j] * z[j] for j in rows) + B[i] * c_act for i in rows]
+                z = [_dot_left_to_right(A[i], z) + B[i] * c_act for i in rows]
                 stage_next = D * c_act
                 for i in rows:
                     stage_next += C[i] * z[i]
@@ -401,6 +403,15 @@ class RigSimulation:
         reference_at = np.concatenate([r[1:], r[-1:]])
         return RigResult(time, reference_at, out["voltage"], out["actuator"], out["stage"],
                          command_V=out["command"], measured_um=out["measured"], path=path)
+
+
+def _dot_left_to_right(row, z) -> float:
+    """``Σ row[j] z[j]`` added strictly left to right, as the stage FMU adds it
+    (``sum`` of floats compensates its rounding from Python 3.12 on)."""
+    total = 0.0
+    for a, x in zip(row, z):
+        total = total + a * x
+    return total
 
 
 def linear_loop(rig: Rig, plant_gain_um_per_V: float):
