@@ -66,6 +66,10 @@ prediction
     effect would miss), both in % of the range.
 
     python benchmarks/bench_diagnosis_generality.py [--records N] [--first-seed S] [--json]
+
+Making the records takes about a second per seed; the diagnosis dominates
+the run time (with ``validate=`` and the excitation replays, 10-160 s per
+record on a shared 2-core machine).  Progress goes to stderr.
 """
 from __future__ import annotations
 
@@ -413,12 +417,12 @@ def print_report(summary) -> None:
     print()
     confusion = summary["confusion"]
     columns = sorted({c for row in confusion.values() for c in row})
-    width = max([12] + [len(c) + 1 for c in columns])
-    print("confusion (rows: truth, columns: named)")
-    print(f"{'':<26}" + "".join(f"{c:>{width}}" for c in columns))
+    widths = [max(5, len(c)) + 2 for c in columns]
+    print("confusion (rows: truth, columns: named; a set is written a|b)")
+    print(f"{'':<26}" + "".join(f"{c:>{w}}" for c, w in zip(columns, widths)))
     for truth in records.EFFECTS:
         if truth in confusion:
-            print(f"{truth:<26}" + "".join(f"{confusion[truth].get(c, 0):>{width}}" for c in columns))
+            print(f"{truth:<26}" + "".join(f"{confusion[truth].get(c, 0):>{w}}" for c, w in zip(columns, widths)))
     c = summary["counts"]
     print()
     print(f"right {c['right']}/{c['records']} (as a set {c['right_as_set']}, by stand-in {c['right_by_stand_in']}); "
