@@ -21,8 +21,8 @@ Procedure (``diagnose``):
    blocks; each block in turn is held out, every model is refitted on the other
    blocks (the input is known everywhere, so the held-out block's prediction
    continues the state the input leaves) and scored on the held-out samples
-   whose input stays inside the range the training blocks covered -- a model
-   is never judged on an extrapolation.  The score is the median over the
+   whose input stays inside the range (and the largest sample-to-sample step)
+   the training blocks covered -- a model is never judged on an extrapolation.  The score is the median over the
    blocks of the held-out mean-square error, so one block the others cannot
    predict does not decide alone.
 4. **Cause**: a candidate is *significant* when its cross-validated
@@ -412,7 +412,10 @@ def make_folds(voltage_V, n_folds: int = N_FOLDS, min_block: int = 200, settle: 
     -------
     list of (train_rows, scored_rows) index arrays: the training rows are the
     other blocks; the scored rows are the block's samples whose input lies
-    inside the range of the training rows.  The first ``settle`` samples are
+    inside the range of the training rows and changes from the previous sample
+    by no more than the input ever does there (a step the training part never
+    showed is an extrapolation too, and so are the ``settle`` samples after
+    it).  The first ``settle`` samples are
     in neither (where the stages of an extended model still depend on the
     unknown state before the record).
 
@@ -423,6 +426,7 @@ def make_folds(voltage_V, n_folds: int = N_FOLDS, min_block: int = 200, settle: 
     [(500, 500), (500, 500)]
     """
     v = np.asarray(voltage_V, dtype=float)
+    step = np.abs(np.diff(v, prepend=v[:1]))
     k = int(max(2, min(n_folds, v.size // min_block)))
     blocks = np.array_split(np.arange(v.size), k)
     folds = []
@@ -430,8 +434,11 @@ def make_folds(voltage_V, n_folds: int = N_FOLDS, min_block: int = 200, settle: 
         train = np.concatenate([b for i, b in enumerate(blocks) if i != j])
         train = train[train >= settle]
         lo, hi = v[train].min(), v[train].max()
-        inside = block[(v[block] >= lo) & (v[block] <= hi) & (block >= settle)]
-        folds.append((train, inside))
+        fastest = step[train].max()
+        ok = (v[block] >= lo) & (v[block] <= hi) & (block >= settle)
+        for k in np.flatnonzero(step[block] > fastest):
+            ok[k:k + max(settle, 1)] = False        # a step never seen, and the response settling after it
+        folds.append((train, block[ok]))
     return folds
 
 
