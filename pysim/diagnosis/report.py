@@ -34,7 +34,7 @@ MAX_SCATTER = 6000
 
 PLOTS = {
     "overview.png": "input (top), measured and simulated displacement (middle) and the residuals "
-                    "(bottom) over the whole record; the shaded part is held out. A residual that "
+                    "(bottom) over the whole record; the shaded part is the last cross-validation block. A residual that "
                     "the extended model flattens is the effect that was named.",
     "loops.png": "held-out hysteresis loops: measured against the baseline and the extended model. "
                  "Loops that the baseline makes too narrow or too wide at some rates point to dynamics "
@@ -91,9 +91,9 @@ def _shade(ax, d: Diagnosis):
 
 
 def _labels(d: Diagnosis):
-    return (f"baseline MPI (held-out RMS {d.baseline.rms_pct:.3g} %)",
+    return (f"baseline MPI (cross-validated RMS {d.baseline.rms_pct:.3g} %)",
             f"extended: {d.extended.cause if d.cause != 'none' else 'none (= baseline)'} "
-            f"(held-out RMS {d.extended.rms_pct:.3g} %)")
+            f"(cross-validated RMS {d.extended.rms_pct:.3g} %)")
 
 
 def plot_overview(d: Diagnosis, path: Path):
@@ -106,8 +106,8 @@ def plot_overview(d: Diagnosis, path: Path):
     axes[0].plot(t, d.voltage_V, color="0.3", lw=0.8)
     axes[0].set_ylabel("voltage (V)")
     axes[0].set_title(f"{Path(d.source).name if d.source else 'record'}: cause named {d.cause}, "
-                      f"held-out gain {d.gain_pct:.1f} %\n(white: training, grey: held out, "
-                      f"hatched: warm-up)", fontsize=10)
+                      f"cross-validated gain {d.gain_pct:.1f} %\n(models fitted on the whole record; every "
+                      f"block is held out in turn for the scores, grey: the last block)", fontsize=10)
     axes[1].plot(t, d.displacement_um, color=MEASURED_COLOUR, lw=0.8, label="measured")
     axes[1].plot(t, d.baseline.prediction_um, color=BASE_COLOUR, lw=0.8, ls="--", label=base_label)
     if d.cause != "none":
