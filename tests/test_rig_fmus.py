@@ -13,13 +13,13 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
+from pysim.specs.flexure_stage import STAGE
 
+from pysim.core.errors import ModelError
 from pysim.core.rig import Amplifier, Converter, PIController, SensorNoise, XorShiftNormal
 from pysim.cosim.stage import discretise
 from pysim.fmu.errors import BuildError
-from pysim.fmu.rig_parts import (amplifier_part, build_part_fmus, controller_part, lti_part, sensor_part,
-                                 zoh_matrices)
-from pysim.specs.flexure_stage import STAGE
+from pysim.fmu.rig_parts import amplifier_part, build_part_fmus, controller_part, lti_part, sensor_part, zoh_matrices
 
 T = 5e-5
 AMPLIFIER = Amplifier(gain_V_per_V=15.0, bandwidth_hz=10e3, current_limit_A=0.3, capacitance_F=3.6e-6,
@@ -357,7 +357,7 @@ def test_builder_refuses_what_it_cannot_build():
         lti_part(control.tf([1.0], [1.0, -0.5], 2 * T), T)
     with pytest.raises(BuildError, match="identifier"):
         amplifier_part(AMPLIFIER, T, name="my amplifier")
-    with pytest.raises(BuildError, match="seed"):
+    with pytest.raises(ModelError, match="seed"):          # refused by the part itself, before any build
         sensor_part(ADC, SensorNoise(0.01, 2 ** 60), T)
 
 
