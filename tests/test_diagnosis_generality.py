@@ -248,3 +248,21 @@ def test_discrete_backlash_extension_predicts_the_other_branch_at_least_as_well(
         prediction = fitter.fit(family, falling).prediction_um
         err[label] = float(np.sqrt(np.mean((y[rising] - prediction[rising]) ** 2)))
     assert err["extended"] <= err["baseline"] * 1.0001, err
+
+
+def test_a_record_that_only_rises_is_not_refused_and_says_why(plant):
+    """Upward steps only: no operator can be identified. identify refuses with the reason; diagnose
+    fits the polynomial part, names nothing and says why (a second record does not name a cause then)."""
+    from pysim.identification.identify import IdentificationError, identify
+
+    v = np.repeat(np.linspace(0.0, plant.voltage_range_V[1], 6), 700)
+    y = noisy(plant.simulate(v), 10)
+    with pytest.raises(IdentificationError, match="only rises"):
+        identify(v, y)
+    fit = identify(v, y, require_excitation=False)
+    assert not np.any(fit.model.weights) and "only rises" in fit.unidentified_reason
+    assert len(fit.not_identifiable_operators) == fit.model.n_operators - 1
+    w = multisine(plant, 5000, 11)
+    d = diagnose(v, y, FS, validate=(w, noisy(plant.simulate(w), 12), FS))
+    assert d.cause == "none" and d.causes == ()
+    assert "cannot identify the hysteresis" in d.why

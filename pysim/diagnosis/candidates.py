@@ -176,9 +176,11 @@ class CandidateFitter:
         self.kind, self.operator = model, operator
         self.name, self.description = name, description
         self.cubic = model == "mpi"
-        self.baseline_result = identify(self.v, self.y, n_operators=self.n, model=model, operator=operator)
+        self.baseline_result = identify(self.v, self.y, n_operators=self.n, model=model, operator=operator,
+                                        require_excitation=False)
         try:
-            self.richer_result = identify(self.v, self.y, n_operators=2 * self.n, model=model, operator=operator)
+            self.richer_result = identify(self.v, self.y, n_operators=2 * self.n, model=model, operator=operator,
+                                          require_excitation=False)
         except IdentificationError:
             self.richer_result = self.baseline_result
         self.u = self.v - self.baseline_result.model.input_offset_V
@@ -367,7 +369,7 @@ class CandidateFitter:
                         input_offset_V=family.input_offset_V, initial_state=family.initial_state,
                         column_transform=None if family.transform is None else family.transform.apply_to_columns,
                         extra_regressors=family.extras or None, extra_nonnegative=family.nonnegative,
-                        fit_rows=rows, name=self.name, description=self.description)
+                        fit_rows=rows, require_excitation=False, name=self.name, description=self.description)
 
     def finish(self, family: Family, result: IdentificationResult) -> CandidateFit:
         """The model of a fitted family, its state and prediction."""

@@ -58,7 +58,7 @@ from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.excitation import separating_excitation
 from pysim.diagnosis.residuals import noise_sigma, quantum, residual_statistics
 from pysim.diagnosis.validation import score_on_record
-from pysim.identification.identify import IdentificationError, auto_warmup
+from pysim.identification.identify import IdentificationError, start_transient
 
 CAUSES = EFFECTS + ("none", "unexplained")
 #: A candidate must remove at least this many noise variances of cross-validated mean-square error.
@@ -78,8 +78,6 @@ N_FOLDS = 5
 #: stages start at rest, the actuator may not have been (the larger of the two).
 SETTLE_MIN_SAMPLES = 20
 SETTLE_FRACTION = 0.01
-#: A residual beyond this many times the RMS of the rest in the first 2 % of a record marks a start transient.
-START_OUTLIER = 8.0
 DEFAULT_TRAIN_FRACTION = 0.65
 _PERIODIC_CORRELATION = 0.9
 
@@ -607,37 +605,6 @@ def _reasons(candidates: dict, stats: dict) -> dict:
     return text
 
 
-def start_transient(voltage_V, displacement_um, **settings) -> int:
-    """Samples at the start that no rate-independent state explains (a sensor or
-    amplifier settling when the logger started), to leave out of the diagnosis.
-
-    The baseline is fitted on every sample with its initial state estimated;
-    within the first 2 % of the record, the samples up to the last one whose
-    residual exceeds ``START_OUTLIER`` times the RMS of the residual over the
-    rest of the record are a start transient (0 when there is none): an
-    effect the catalogue knows spreads over the whole record, a settling
-    logger does not.
-
-    Examples
-    --------
-    >>> k = np.arange(3000)
-    >>> v = 50 + 40 * np.sin(2 * np.pi * k / 500)
-    >>> y = 0.5 * v + np.where(k < 10, -10.0, 0.0) + np.random.default_rng(0).normal(0, 0.01, k.size)
-    >>> 10 <= start_transient(v, y, n_operators=4) <= 30
-    True
-    """
-    from pysim.identification.identify import identify
-
-    v = np.asarray(voltage_V, dtype=float)
-    y = np.asarray(displacement_um, dtype=float)
-    residual = y - identify(v, y, **settings).prediction_um
-    n_head = max(v.size // 50, 1)
-    rest = residual[n_head:]
-    scale = float(np.sqrt(np.mean((rest - np.mean(rest)) ** 2))) if rest.size else 0.0
-    large = np.flatnonzero(np.abs(residual[:n_head] - np.mean(rest)) > START_OUTLIER * max(scale, 1e-300))
-    return int(large[-1] + 1) if large.size else 0
-
-
 def _check_record(v, y, sample_rate_hz, what: str):
     if v.shape != y.shape:
         raise DiagnosisError(f"{what}{v.size} voltage samples but {y.size} displacement samples")
@@ -787,11 +754,24 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                      noise, complexity)
     for c, ev in candidates.items():
         ev.significant = verdict["significant"][c]
+    unidentified = baseline.fit.result.unidentified_reason if baseline.fit.result is not None else ""
+    if unidentified and verdict["cause"] in ("unexplained", "drift"):
+        # without identified operators the loop shape is left in the residual: calling it "outside the
+        # catalogue" would name the missing excitation as an effect, and on an input that barely
+        # reverses a slow trend in time is a trend in the input level, i.e. the shape again
+        verdict = {**verdict, "cause": "none", "causes": (), "best": None, "explained_share": 0.0, "text": ""}
     cv_verdict = verdict
 
     validation = None
     if validate is not None:
-        validation, verdict = _validate(fitter, baseline, richer, candidates, v, v2, y2, complexity)
+        validation, v_verdict = _validate(fitter, baseline, richer, candidates, v, v2, y2, complexity)
+        if unidentified:
+            # the first record cannot identify the hysteresis: the second record would measure that,
+            # not an effect, so it does not name the cause
+            validation["note"] += ("; not used to name the cause: the first record cannot identify the "
+                                   f"hysteresis ({unidentified})")
+        else:
+            verdict = v_verdict
 
     cause, causes = verdict["cause"], verdict["causes"]
     held = split.heldout
@@ -805,7 +785,10 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         extended = Evaluation(baseline.fit, baseline.rms_pct, baseline.max_pct, baseline.rms_um,
                               baseline.train_rms_pct, cv_prediction_um=baseline.cv_prediction_um,
                               character=baseline.character, validation=baseline.validation)
-    why = _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation)
+    why = _why(verdict, cv_verdict, baseline, richer, candidates, noise,
+               None if unidentified else validation)
+    if unidentified:
+        why += f". The record cannot identify the hysteresis: {unidentified}"
     excitation, plan = None, []
     if len(causes) > 1:
         lo, hi = float(v.min()), float(v.max())

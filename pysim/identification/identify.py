@@ -51,7 +51,7 @@ import numpy as np
 import scipy.linalg
 from numpy.linalg import LinAlgError
 from scipy.linalg import cholesky, solve_triangular
-from scipy.optimize import least_squares, nnls
+from scipy.optimize import nnls
 
 from pysim.core.invertibility import branch_cases, square_range
 from pysim.core.metrics import error_measures
@@ -67,6 +67,11 @@ STATE_ITERATIONS = 12
 #: (its weight is then tied to its neighbour's density).
 RANK_TOLERANCE = 1e-7
 _BIG = 1e12
+
+
+#: A residual beyond this many times the RMS of the rest in the first 2 % of a record marks a start
+#: transient (a logger or amplifier settling that no operator state explains).
+START_OUTLIER = 8.0
 
 
 @dataclass
@@ -125,6 +130,7 @@ class IdentificationResult:
     merged_into: dict = field(default_factory=dict)
     operator_travel_V: np.ndarray = None
     condition_number: float = float("nan")
+    unidentified_reason: str = ""
 
     def parameters(self) -> dict:
         """The model's parameters as plain numbers (for JSON)."""
@@ -155,6 +161,7 @@ class IdentificationResult:
             "not_identifiable_thresholds_V": [float(r[i]) for i in self.not_identifiable_operators],
             "operator_travel_V": [float(x) for x in self.operator_travel_V],
             "condition_number": float(self.condition_number),
+            "unidentified_reason": self.unidentified_reason,
         }
 
 
@@ -452,7 +459,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
              operator: str = "osp", thresholds_V=None, warmup="auto", fit_slice: slice = None,
              min_slope_fraction: float = 0.01, extra_regressors: dict = None, extra_nonnegative=(),
              column_transform=None, initial_state=None, merge_unexcited: bool = True, fit_rows=None,
-             input_offset_V: float = None, name: str = None,
+             input_offset_V: float = None, require_excitation: bool = True, name: str = None,
              description: str = "") -> IdentificationResult:
     """Fit an MPI or CPI model to a measured record.
 
@@ -504,6 +511,10 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         of ``fit_slice``; the model still runs over the whole record.
     input_offset_V : float, optional
         Input shift (default: the bottom of the fitted samples' range).
+    require_excitation : bool
+        Refuse a record that cannot identify any operator (default).  With
+        False such a record is fitted by ``a1 u³ + a2 u + offset`` and every
+        operator is reported as not identifiable (``unidentified_reason``).
     name, description : str
         Stored in the model.
 
@@ -577,7 +588,13 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         raise IdentificationError(
             f"{n_rows} samples to fit (after a warm-up of {start}) but the model has {n_params_hint} "
             f"parameters: need at least {n_params_hint + 1}")
-    _reversal_check(v, rows, f"{first}..{stop - 1}")
+    try:
+        _reversal_check(v, rows, f"{first}..{stop - 1}")
+        unexcited_message = None
+    except IdentificationError as exc:
+        if require_excitation:
+            raise
+        unexcited_message = str(exc)
 
     u = v - input_offset
     low, high = operator_bounds(v, r, operator, input_offset)
@@ -596,10 +613,15 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         anchor = np.where(r > 0, np.arange(r.size), -1)
         factor = np.ones(r.size)
     if np.any(r > 0) and not np.any(anchor >= 0):
-        raise IdentificationError(
-            f"no operator is excited over samples {first}..{stop - 1}: the input never travels more than "
-            f"the smallest threshold ({float(np.min(r[r > 0])):.4g} V) in one direction after a reversal; "
-            "record at least one rise and fall over most of the range")
+        message = (f"no operator is excited over samples {first}..{stop - 1}: the input never travels more "
+                   f"than the smallest threshold ({float(np.min(r[r > 0])):.4g} V) in one direction after a "
+                   "reversal; record at least one rise and fall over most of the range")
+        if require_excitation:
+            raise IdentificationError(message)
+        unexcited_message = unexcited_message or message
+    if unexcited_message is not None:
+        # no operator can be identified: all are reported, with weight 0 (the model is a1 u³ + a2 u + offset)
+        anchor = np.full(r.size, -1)
     n_lin = 2 if cubic else 1
 
     def layout():
@@ -866,4 +888,35 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         errors=error_measures(y[rows], prediction[rows]), constraints_active=active,
         extra_coefficients=extra_coefficients, objective=sse, initial_state=np.asarray(state0, dtype=float),
         initial_state_estimated=bool(estimate), not_identifiable_operators=not_identifiable,
-        merged_into=merged, operator_travel_V=travel, condition_number=condition)
+        merged_into=merged, operator_travel_V=travel, condition_number=condition,
+        unidentified_reason=unexcited_message or "")
+
+
+def start_transient(voltage_V, displacement_um, **settings) -> int:
+    """Samples at the start that no rate-independent state explains (a sensor or
+    amplifier settling when the logger started), to leave out of a fit.
+
+    The baseline is fitted on every sample with its initial state estimated;
+    within the first 2 % of the record, the samples up to the last one whose
+    residual exceeds ``START_OUTLIER`` times the RMS of the residual over the
+    rest of the record are a start transient (0 when there is none): creep,
+    lag or drift spread over the whole record, a settling logger does not.
+
+    Examples
+    --------
+    >>> k = np.arange(3000)
+    >>> v = 50 + 40 * np.sin(2 * np.pi * k / 500)
+    >>> y = 0.5 * v + np.where(k < 10, -10.0, 0.0) + np.random.default_rng(0).normal(0, 0.01, k.size)
+    >>> 10 <= start_transient(v, y, n_operators=4) <= 30
+    True
+    """
+    v = np.asarray(voltage_V, dtype=float)
+    y = np.asarray(displacement_um, dtype=float)
+    residual = y - identify(v, y, require_excitation=False, **settings).prediction_um
+    n_head = max(v.size // 50, 1)
+    rest = residual[n_head:]
+    scale = float(np.sqrt(np.mean((rest - np.mean(rest)) ** 2))) if rest.size else 0.0
+    # the fit that includes the transient bends its initial state towards it, so a few samples after
+    # the transient may be counted too: leaving out too many costs little, too few biases the fit
+    large = np.flatnonzero(np.abs(residual[:n_head] - np.mean(rest)) > START_OUTLIER * max(scale, 1e-300))
+    return int(large[-1] + 1) if large.size else 0

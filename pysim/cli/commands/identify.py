@@ -58,7 +58,7 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from pysim.core.spec import model_name_from_path, write_spec
-    from pysim.identification.identify import IdentificationError, identify
+    from pysim.identification.identify import IdentificationError, identify, start_transient
 
     if args.operators < 1:
         raise UserError(f"--operators must be at least 1, got {args.operators}")
@@ -73,12 +73,21 @@ def run(args) -> int:
             raise UserError(f"{args.out}: folder {out_dir} does not exist")
     data = load_data(args)
     warmup = "auto" if args.warmup == "auto" else int(args.warmup)
+    transient = 0
+    if warmup == "auto":
+        # a logger or amplifier settling at the start that no operator state explains is left out of
+        # the fit (the state at the first sample is still estimated, so nothing else changes)
+        try:
+            transient = start_transient(data.voltage_V, data.displacement_um, n_operators=args.operators,
+                                        model=args.model, operator=args.operator)
+        except IdentificationError as exc:
+            raise UserError(f"{data.source}: {exc}") from exc
     results = {}
     for kind in ("mpi", "cpi"):
         try:
             results[kind] = identify(
                 data.voltage_V, data.displacement_um, n_operators=args.operators, model=kind,
-                operator=args.operator, warmup=warmup, name=name,
+                operator=args.operator, warmup=warmup, fit_slice=slice(transient, None), name=name,
                 description=f"{kind.upper()} model identified from {Path(data.source).name} by pysim identify")
         except IdentificationError as exc:
             raise UserError(f"{data.source}: {exc}") from exc
@@ -88,7 +97,9 @@ def run(args) -> int:
                    header=f"{args.model.upper()} model ({args.operators} {args.operator} operators) "
                           f"identified from {Path(data.source).name} by pysim identify.\n\n"
                           f"Fit errors (% of measured range, after a warm-up of "
-                          f"{chosen.warmup_samples} samples): max {chosen.errors['max_error_pct']:.3f}, "
+                          f"{chosen.warmup_samples} samples"
+                          + (f" and a start transient of {transient} samples" if transient else "")
+                          + f"): max {chosen.errors['max_error_pct']:.3f}, "
                           f"RMS {chosen.errors['rms_error_pct']:.3f}, mean {chosen.errors['mean_error_pct']:.3f}"
                           + (" (from the operator state estimated at the start of the record: "
                              f"{[round(float(x), 6) for x in chosen.initial_state]} V)"
@@ -99,21 +110,24 @@ def run(args) -> int:
             "parameters": chosen.parameters(),
             **chosen.errors,
             "warmup_samples": chosen.warmup_samples,
+            "start_excluded_samples": transient,
             "constraints_active": chosen.constraints_active,
             "identifiability": chosen.identifiability(),
             "comparison": {kind: res.errors for kind, res in results.items()},
             "spec": args.out,
         }, indent=2))
     else:
-        print(format_table(chosen, results, data.source, args.out))
+        print(format_table(chosen, results, data.source, args.out, transient))
     return 0
 
 
-def format_table(chosen, results, source, out) -> str:
+def format_table(chosen, results, source, out, transient: int = 0) -> str:
     m = chosen.model
     lines = [f"{m.kind.upper()} model of {source}: {m.n_operators} {m.operator} operators, "
              f"fit on samples {chosen.fit_slice.start}..{chosen.fit_slice.stop - 1} "
              f"(warm-up {chosen.warmup_samples})",
+             *([f"  samples 0..{transient - 1} left out: a start transient (a logger or amplifier settling) "
+                "that no operator state explains (--warmup N chooses the samples left out instead)"] if transient else []),
              "",
              f"  a1            {m.a1: .6e} µm/V³",
              f"  a2            {m.a2: .6e} µm/V",
