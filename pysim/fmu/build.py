@@ -162,11 +162,53 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
     idents = {kind: model_identifier(models[kind], kind) for kind in kinds}
     say(f"generated modelDescription.xml and model_config.h for {', '.join(idents.values())}")
 
+    written = compile_and_package({idents[kind]: files[kind] for kind in kinds}, out_dir, names,
+                                  use_cache=use_cache, cache_dir=cache_dir, say=say,
+                                  checked_note=f"each exports exactly the {len(binaries.FMI2_CS_FUNCTIONS)} "
+                                               "fmi2 co-simulation functions", size_note=f"{', '.join(names)} + sources")
+    return {kind: written[idents[kind]] for kind in kinds}
+
+
+def compile_and_package(files_by_identifier: dict, out_dir, names, *, use_cache: bool = True, cache_dir=None,
+                        say=lambda message: None, checked_note: str = "", size_note: str = "") -> dict:
+    """Compile every FMU's sources for every platform, check the exports, write the FMUs.
+
+    The one packaging step of every FMU this package builds (plant, inverse,
+    rig parts): the binaries come from the cache when their sources are
+    unchanged, each must export exactly the FMI 2.0 co-simulation functions,
+    and the ``.fmu`` files appear in ``out_dir`` together or not at all.
+
+    Parameters
+    ----------
+    files_by_identifier : dict
+        ``{model identifier: {archive path: bytes}}`` with the sources under
+        ``sources/``.
+    out_dir : path
+        Folder for ``<identifier>.fmu``.
+    names : list of str
+        Platform names (see :data:`pysim.fmu.compile.PLATFORMS`).
+    use_cache, cache_dir, say
+        As in :func:`build_fmus`.
+    checked_note, size_note : str
+        Added to the progress lines.
+
+    Returns
+    -------
+    dict
+        ``{identifier: Path}``.
+
+    Examples
+    --------
+    >>> compile_and_package({}, "fmus/", ["linux64"])
+    {}
+    """
+    out_dir = Path(out_dir)
     jobs = []
-    for kind in kinds:
-        sources = {path[len("sources/"):]: data for path, data in files[kind].items()
-                   if path.startswith("sources/")}
-        jobs += [(idents[kind], sources, name) for name in names]
+    for ident, files in files_by_identifier.items():
+        sources = {path[len("sources/"):]: data for path, data in files.items() if path.startswith("sources/")}
+        jobs += [(ident, sources, name) for name in names]
+    if not jobs:
+        return {}
     cache = (Path(cache_dir) if cache_dir else default_cache_dir()) if use_cache else None
     built = build_binaries(jobs, cache, say)
     for (ident, name), data in built.items():
@@ -174,19 +216,16 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
             binaries.check_exports(data, f"{ident} for {name}")
         except binaries.BinaryError as exc:
             raise ToolchainError(f"the built library is wrong: {exc}") from exc
-    say(f"checked the binaries: each exports exactly the {len(binaries.FMI2_CS_FUNCTIONS)} "
-        "fmi2 co-simulation functions")
-
+    if checked_note:
+        say(f"checked the binaries: {checked_note}")
     result = {}
     with staged_directory(out_dir) as staging:
-        for kind in kinds:
-            ident = idents[kind]
-            content = dict(files[kind])
+        for ident, files in files_by_identifier.items():
+            content = dict(files)
             for name in names:
                 content[f"binaries/{name}/{ident}{PLATFORMS[name].suffix}"] = built[(ident, name)]
             (staging / f"{ident}.fmu").write_bytes(fmu_bytes(content))
-            result[kind] = out_dir / f"{ident}.fmu"
-    for kind in kinds:
-        say(f"wrote {result[kind]} ({os.path.getsize(result[kind]) / 1024:.0f} kB, "
-            f"{', '.join(names)} + sources)")
+            result[ident] = out_dir / f"{ident}.fmu"
+    for ident, path in result.items():
+        say(f"wrote {path} ({os.path.getsize(path) / 1024:.0f} kB" + (f", {size_note})" if size_note else ")"))
     return result
