@@ -110,6 +110,47 @@ def _stage_config(model) -> list:
     ]
 
 
+def units_and_log_categories_xml(units: dict, log_categories=LOG_CATEGORIES) -> list:
+    """``<UnitDefinitions>`` (when any unit is used) and ``<LogCategories>`` lines of a
+    modelDescription.xml; ``units`` maps a unit name to ``(factor, {SI base: exponent})``,
+    ``log_categories`` holds ``(name, description)`` pairs."""
+    lines = []
+    if units:
+        lines.append("  <UnitDefinitions>")
+        for name, (factor, exponents) in units.items():
+            base = _attributes(**{k: str(e) for k, e in exponents.items()},
+                               factor=None if factor == 1.0 else _xml_double(factor))
+            lines.append(f"    <Unit {_attributes(name=name)}><BaseUnit {base}/></Unit>")
+        lines.append("  </UnitDefinitions>")
+    lines.append("  <LogCategories>")
+    for name, text in log_categories:
+        lines.append(f"    <Category {_attributes(name=name, description=text)}/>")
+    lines.append("  </LogCategories>")
+    return lines
+
+
+def model_variables_xml(all_variables) -> list:
+    """``<ModelVariables>`` lines: inputs and outputs continuous, parameters fixed,
+    locals constant; each variable's 1-based index in a comment."""
+    lines = ["  <ModelVariables>"]
+    for v in all_variables:
+        variability = "continuous" if v.causality in ("input", "output") and v.type == "Real" else (
+            {"parameter": "fixed", "local": "constant"}.get(v.causality, "discrete"))
+        initial = {"parameter": "exact", "output": "calculated", "local": "exact"}.get(v.causality)
+        lines.append(f"    <!-- index {v.value_reference + 1} -->")
+        lines.append("    <ScalarVariable " + _attributes(
+            name=v.name, valueReference=v.value_reference, description=v.description,
+            causality=v.causality, variability=variability, initial=initial) + ">")
+        if v.type == "Real":
+            start = None if v.start is None else _xml_double(v.start)
+            lines.append(f"      <Real {_attributes(unit=v.unit, start=start)}/>")
+        else:
+            lines.append(f"      <Boolean {_attributes(start='true' if v.start else 'false')}/>")
+        lines.append("    </ScalarVariable>")
+    lines.append("  </ModelVariables>")
+    return lines
+
+
 def config_header_text(identifier: str, guid: str, what: str, all_variables, model_defines=(),
                        trailing_defines=()) -> str:
     """Text of a ``model_config.h``: the defines the shared FMI layer reads
@@ -214,35 +255,11 @@ def model_description(model, kind: str, guid: str, source_files, version: str) -
         lines.append(f"      <File {_attributes(name=name)}/>")
     lines.append("    </SourceFiles>")
     lines.append("  </CoSimulation>")
-    lines.append("  <UnitDefinitions>")
-    for name, (factor, exponents) in unit_definitions(allv).items():
-        base = _attributes(**{k: str(e) for k, e in exponents.items()},
-                           factor=None if factor == 1.0 else _xml_double(factor))
-        lines.append(f"    <Unit {_attributes(name=name)}><BaseUnit {base}/></Unit>")
-    lines.append("  </UnitDefinitions>")
-    lines.append("  <LogCategories>")
-    for name, text in LOG_CATEGORIES:
-        lines.append(f"    <Category {_attributes(name=name, description=text)}/>")
-    lines.append("  </LogCategories>")
+    lines += units_and_log_categories_xml(unit_definitions(allv))
     step = "0.001" if stages is None else _xml_double(stages["sample_period_s"])
     lines.append("  " + "<DefaultExperiment " + _attributes(startTime="0.0", stopTime="1.0", stepSize=step)
                  + "/>")
-    lines.append("  <ModelVariables>")
-    for v in allv:
-        variability = "continuous" if v.causality in ("input", "output") and v.type == "Real" else (
-            {"parameter": "fixed", "local": "constant"}.get(v.causality, "discrete"))
-        initial = {"parameter": "exact", "output": "calculated", "local": "exact"}.get(v.causality)
-        lines.append(f"    <!-- index {v.value_reference + 1} -->")
-        lines.append("    <ScalarVariable " + _attributes(
-            name=v.name, valueReference=v.value_reference, description=v.description,
-            causality=v.causality, variability=variability, initial=initial) + ">")
-        if v.type == "Real":
-            start = None if v.start is None else _xml_double(v.start)
-            lines.append(f"      <Real {_attributes(unit=v.unit, start=start)}/>")
-        else:
-            lines.append(f"      <Boolean {_attributes(start='true' if v.start else 'false')}/>")
-        lines.append("    </ScalarVariable>")
-    lines.append("  </ModelVariables>")
+    lines += model_variables_xml(allv)
     # ModelStructure indices are 1-based positions in ModelVariables (= vr + 1)
     inputs = [v for v in allv if v.causality == "input"]
     outputs = [v for v in allv if v.causality == "output"]

@@ -76,7 +76,7 @@ from pysim.core.toolchain import SOURCE_DIR
 from pysim.fmu.build import _platform_names, compile_and_package, tool_version
 from pysim.fmu.errors import BuildError
 from pysim.fmu.generate import (GENERATION_TOOL, _attributes, _c_double, _initializer, _xml_double,
-                                config_header_text)
+                                config_header_text, model_variables_xml, units_and_log_categories_xml)
 from pysim.fmu.variables import Variable
 
 __all__ = ["RIG_KINDS", "PartFMU", "amplifier_part", "controller_part", "sensor_part", "lti_part",
@@ -493,37 +493,11 @@ def model_description(part: PartFMU, guid: str, version: str) -> str:
     lines.append(f"      <File {_attributes(name='all.c')}/>")
     lines.append("    </SourceFiles>")
     lines.append("  </CoSimulation>")
-    units = _unit_definitions(allv)
-    if units:
-        lines.append("  <UnitDefinitions>")
-        for name, (factor, exponents) in units.items():
-            base = _attributes(**{k: str(e) for k, e in exponents.items()},
-                               factor=None if factor == 1.0 else _xml_double(factor))
-            lines.append(f"    <Unit {_attributes(name=name)}><BaseUnit {base}/></Unit>")
-        lines.append("  </UnitDefinitions>")
-    lines.append("  <LogCategories>")
-    for name, text in LOG_CATEGORIES:
-        lines.append(f"    <Category {_attributes(name=name, description=text)}/>")
-    lines.append("  </LogCategories>")
+    lines += units_and_log_categories_xml(_unit_definitions(allv), LOG_CATEGORIES)
     lines.append("  <DefaultExperiment " + _attributes(
         startTime="0.0", stopTime=_xml_double(1000 * part.nominal_step_s),
         stepSize=_xml_double(part.nominal_step_s)) + "/>")
-    lines.append("  <ModelVariables>")
-    for v in allv:
-        variability = "continuous" if v.causality in ("input", "output") and v.type == "Real" else (
-            {"parameter": "fixed", "local": "constant"}.get(v.causality, "discrete"))
-        initial = {"parameter": "exact", "output": "calculated", "local": "exact"}.get(v.causality)
-        lines.append(f"    <!-- index {v.value_reference + 1} -->")
-        lines.append("    <ScalarVariable " + _attributes(
-            name=v.name, valueReference=v.value_reference, description=v.description,
-            causality=v.causality, variability=variability, initial=initial) + ">")
-        if v.type == "Real":
-            start = None if v.start is None else _xml_double(v.start)
-            lines.append(f"      <Real {_attributes(unit=v.unit, start=start)}/>")
-        else:
-            lines.append(f"      <Boolean {_attributes(start='true' if v.start else 'false')}/>")
-        lines.append("    </ScalarVariable>")
-    lines.append("  </ModelVariables>")
+    lines += model_variables_xml(allv)
     inputs = [v.value_reference + 1 for v in allv if v.causality == "input"]
     parameters = [v.value_reference + 1 for v in allv if v.causality == "parameter"]
     outputs = [v.value_reference + 1 for v in allv if v.causality == "output"]
