@@ -43,27 +43,6 @@ fmi2Status model_prepare(Instance *inst)
     return fmi2OK;
 }
 
-int model_input_ok(const Instance *inst, fmi2ValueReference vr, double value)
-{
-    (void)inst;
-    (void)vr;
-    return layer_is_finite(value);
-}
-
-fmi2Status model_accept_input(Instance *inst, fmi2ValueReference vr, double *value)
-{
-    (void)inst;                      /* never called: every finite command is ok */
-    (void)vr;
-    (void)value;
-    return fmi2OK;
-}
-
-int model_outputs_hold(const Instance *inst)
-{
-    (void)inst;                      /* the output moves over a step */
-    return 0;
-}
-
 /* alpha and max_change for the step h, in the operations of Amplifier.coefficients. */
 void amp_coefficients(Instance *inst, double h);
 void amp_coefficients(Instance *inst, double h)

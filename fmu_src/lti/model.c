@@ -271,27 +271,6 @@ fmi2Status model_prepare(Instance *inst)
     return fmi2OK;
 }
 
-int model_input_ok(const Instance *inst, fmi2ValueReference vr, double value)
-{
-    (void)inst;
-    (void)vr;
-    return layer_is_finite(value);
-}
-
-fmi2Status model_accept_input(Instance *inst, fmi2ValueReference vr, double *value)
-{
-    (void)inst;                      /* never called: every finite input is ok */
-    (void)vr;
-    (void)value;
-    return fmi2OK;
-}
-
-int model_outputs_hold(const Instance *inst)
-{
-    (void)inst;                      /* the state moves over a step */
-    return 0;
-}
-
 LAYER_HOT fmi2Status model_update(Instance *inst)
 {
     double *real = inst->real;

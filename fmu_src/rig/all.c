@@ -33,6 +33,7 @@
 
 #include "model_config.h"
 #include "model.c"
+#include "part_hooks.c"
 #include "fmi2_layer.c"
 
 #if defined(__GNUC__) && !defined(_WIN32)

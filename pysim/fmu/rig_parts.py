@@ -85,7 +85,7 @@ __all__ = ["RIG_KINDS", "PartFMU", "amplifier_part", "controller_part", "sensor_
 RIG_KINDS = ("amplifier", "controller", "sensor", "lti")
 MAX_LTI_STATES = 16
 COMMON_SOURCES = ("fmi2_layer.c", "fmi2_layer.h")          # from fmu_src/
-RIG_SOURCES = ("all.c", "rig_part.h")                      # from fmu_src/rig/
+RIG_SOURCES = ("all.c", "part_hooks.c", "rig_part.h")      # from fmu_src/rig/
 MODEL_SOURCES = ("model.c", "model.h")                     # from fmu_src/<kind>/
 LOG_CATEGORIES = (
     ("logEvents", "state changes: instantiation, initialisation, termination, reset"),
