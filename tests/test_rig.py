@@ -51,7 +51,7 @@ def test_linear_closed_loop_bandwidth_equals_control_bandwidth(linear_rig_sim):
     closed = linear_loop(sim.rig, 0.5)
 
     def gain(frequency_hz):
-        return float(np.abs(np.asarray(control.frequency_response(closed, [2 * math.pi * frequency_hz]).response)).ravel()[0])
+        return float(np.abs(np.asarray(control.frequency_response(closed, [2 * math.pi * frequency_hz]).complex)).ravel()[0])
 
     # the gain against the desired sine is |T(e^jωT)| at every frequency
     assert np.max(np.abs(result.gain - [gain(x) for x in f])) <= 1e-6
