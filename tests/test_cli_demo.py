@@ -45,6 +45,8 @@ def test_demo_writes_plots_report_and_results(tmp_path):
     stage_hz = results["stage"]["minus3db_hz"]
     assert bandwidths["feedback"]["7.5"]["minus3db_normalised_hz"] < 0.2 * stage_hz
     assert results["monte_carlo"]["draws"] == 2
+    spread = results["monte_carlo"]["summary"]["compensated"]["minus3db_normalised_hz"]
+    assert spread["crossed"] == 2 and spread["p5"] <= spread["median"] <= spread["p95"] < stage_hz
     import zipfile
 
     with zipfile.ZipFile(out / "rig.ssp") as ssp:
@@ -141,3 +143,42 @@ def test_bandwidth_without_a_stage_is_flat_and_reports_no_crossing(default_fmus)
     data = json.loads(result.stdout)
     assert data["bandwidth_hz"] == {"uncompensated": None, "compensated": None}
     assert "stage_bandwidth_hz" not in data
+
+
+def test_track_reference_csv_equals_the_same_sine_given_by_amplitude(default_fmus, tmp_path):
+    """A reference CSV holding the Table III sine at A = 15 µm, scored from the second period on,
+    gives the errors `--amplitudes 15` gives (two ways of asking the same question)."""
+    import numpy as np
+
+    plant, inverse = default_fmus
+    step = 1e-4
+    k = np.arange(20000)
+    reference = 37.5 + 15.0 * np.sin(2 * np.pi * (k % 10000) / 10000)
+    csv = tmp_path / "reference.csv"
+    np.savetxt(csv, np.column_stack([k * step, reference]), delimiter=",", header="time_s,displacement_um",
+               comments="", fmt="%.17g")
+    by_file = pysim("track", "--json", "--plant", plant, "--inverse", inverse, "--reference", csv,
+                    "--score-from", "1.0")
+    by_sine = pysim("track", "--json", "--plant", plant, "--inverse", inverse, "--amplitudes", "15")
+    assert by_file.returncode == 0 and by_sine.returncode == 0, by_file.stderr + by_sine.stderr
+    file_row = json.loads(by_file.stdout)["tracking"][0]
+    sine_row = json.loads(by_sine.stdout)["tracking"][0]
+    assert json.loads(by_file.stdout)["scored_from_sample"] == 10000
+    for path in ("uncompensated", "compensated"):
+        for key in ("max_error_pct", "rms_error_pct"):
+            assert file_row[path][key] == pytest.approx(sine_row[path][key], rel=1e-9, abs=1e-12)
+
+
+@pytest.mark.parametrize("case", ["uneven", "constant", "both", "late"])
+def test_track_reference_refuses_what_it_cannot_use(default_fmus, tmp_path, case):
+    plant, inverse = default_fmus
+    csv = tmp_path / "reference.csv"
+    times = [0.0, 0.001, 0.0025, 0.003] if case == "uneven" else [0.0, 0.001, 0.002, 0.003]
+    values = [30.0, 30.0, 30.0, 30.0] if case == "constant" else [30.0, 31.0, 32.0, 31.0]
+    csv.write_text("time_s,displacement_um\n" + "".join(f"{t},{x}\n" for t, x in zip(times, values)))
+    extra = {"both": ["--amplitudes", "10"], "late": ["--score-from", "5"]}.get(case, [])
+    result = pysim("track", "--plant", plant, "--inverse", inverse, "--reference", csv, *extra)
+    assert result.returncode == 2
+    assert len(result.stderr.strip().splitlines()) == 1
+    assert {"uneven": "not uniform", "constant": "constant", "both": "not both", "late": "--score-from"}[case] \
+        in result.stderr

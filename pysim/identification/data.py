@@ -33,7 +33,7 @@ from pysim.core.fileio import atomic_write_text
 from pysim.identification.errors import DataError, IdentificationError
 
 __all__ = [
-    "COLUMNS", "MeasuredData", "load_measured", "save_measured", "require_samples",
+    "COLUMNS", "MeasuredData", "load_measured", "load_reference", "save_measured", "require_samples",
     "estimate_sample_rate", "shipped_dataset", "SHIPPED_DATASETS",
 ]
 
@@ -244,6 +244,55 @@ def load_measured(path, *, time_column=None, voltage_column=None, displacement_c
         the first data row), each used cell a finite number; time must
         strictly increase; at least 2 samples.
     """
+    specs = {"time_s": time_column, "voltage_V": voltage_column, "displacement_um": displacement_column}
+    column, rate = _load_columns(path, specs, header, delimiter, sample_rate_hz, skip_rows)
+    return MeasuredData(column["time_s"], column["voltage_V"], column["displacement_um"], source=str(path),
+                        sample_rate_hz=rate)
+
+
+def load_reference(path, *, time_column=None, displacement_column=None, header=True, delimiter=None,
+                   sample_rate_hz=None, skip_rows=0) -> tuple:
+    """Load a displacement reference (what the stage should follow) from a delimited text file.
+
+    The same reader and checks as :func:`load_measured`, for a file with a time
+    column (or ``sample_rate_hz``) and a displacement column, default names
+    ``time_s`` and ``displacement_um``.
+
+    Returns
+    -------
+    time_s, displacement_um : numpy.ndarray
+        Read-only float64 arrays.
+    sample_rate_hz : float
+        The given rate or :func:`estimate_sample_rate` of the time column.
+
+    Raises
+    ------
+    DataError
+        As :func:`load_measured`: one message naming the file, line and column.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = os.path.join(folder, "ref.csv")
+    ...     with open(path, "w") as f:
+    ...         _ = f.write("time_s,displacement_um\\n0,10\\n0.001,12\\n0.002,15\\n")
+    ...     t, x, fs = load_reference(path)
+    >>> x.tolist(), round(fs)
+    ([10.0, 12.0, 15.0], 1000)
+    """
+    specs = {"time_s": time_column, "displacement_um": displacement_column}
+    column, rate = _load_columns(path, specs, header, delimiter, sample_rate_hz, skip_rows)
+    time, displacement = (np.array(column[key], dtype=np.float64) for key in ("time_s", "displacement_um"))
+    for array in (time, displacement):
+        array.setflags(write=False)
+    return time, displacement, (estimate_sample_rate(time) if rate is None else float(rate))
+
+
+def _load_columns(path, specs: dict, header, delimiter, sample_rate_hz, skip_rows) -> tuple:
+    """``({role: float64 array}, rate or None)`` of the columns named by ``specs``
+    (role -> name or 1-based number, None for the role's default name); ``time_s``
+    is made from the sample rate when the file has no time column."""
     name = str(path)
     path = Path(path)
     rate = _check_sample_rate(name, sample_rate_hz)
@@ -262,7 +311,6 @@ def load_measured(path, *, time_column=None, voltage_column=None, displacement_c
     if len(cells) < 2:
         raise DataError(_one_column_message(name, first + 1, lines[first], sep, detected=delimiter is None))
 
-    specs = {"time_s": time_column, "voltage_V": voltage_column, "displacement_um": displacement_column}
     if header:
         names = [_unquote(cell) for cell in cells]
         _reject_numeric_header(name, first + 1, names)
@@ -277,7 +325,7 @@ def load_measured(path, *, time_column=None, voltage_column=None, displacement_c
         data_start = first
     reader = _Reader(name, lines, data_start, sep, len(cells), columns, names, header_line=first + 1)
     table = reader.parse()
-    return reader.validate(table, rate)
+    return reader.columns_of(table, rate), rate
 
 
 class _Reader:
@@ -375,7 +423,9 @@ class _Reader:
         return head + " (too many cells: a stray delimiter or a decimal comma?)"
 
     # -- checks on the numbers
-    def validate(self, table: np.ndarray, rate) -> MeasuredData:
+    def columns_of(self, table: np.ndarray, rate) -> dict:
+        """``{role: column}`` after the checks on the numbers (finite, enough
+        rows, time strictly increasing); ``time_s`` from ``rate`` if absent."""
         bad = ~np.isfinite(table)
         if bad.any():
             row = int(np.flatnonzero(bad.any(axis=1))[0])
@@ -402,8 +452,8 @@ class _Reader:
                                     f"(same as line {previous}); time must strictly increase")
                 raise DataError(f"{self.where(k + 1, index)}: time {float(time[k + 1])!r} s is not after "
                                 f"{float(time[k])!r} s on line {previous}; time must strictly increase")
-        return MeasuredData(time, column["voltage_V"], column["displacement_um"], source=self.name,
-                            sample_rate_hz=rate)
+        column["time_s"] = time
+        return column
 
 
 # ------------------------------------------------------------- file level

@@ -700,8 +700,20 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     extra_matrix = np.column_stack(list(extras.values())) if extras else np.zeros((v.size, 0))
     extra_w = extra_matrix[rows]
 
+    # Rows outside the transient do not depend on the state: build them once
+    # and rewrite only the transient rows for each state tried.
+    window_base = np.column_stack([design(state0, low_w, high_w, u_w), extra_w])
+    low_t, high_t, u_t = low_w[transient_rows], high_w[transient_rows], u_w[transient_rows]
+
+    def window_design(state):
+        """The fitted rows' design matrix (hysteresis columns, then extras) for ``state``."""
+        A = window_base.copy()
+        if transient_rows.size:
+            A[transient_rows, :n_hyst] = design(state, low_t, high_t, u_t)
+        return A
+
     def solve(state):
-        A = np.column_stack([design(state, low_w, high_w, u_w), extra_w])
+        A = window_design(state)
         theta, active, condition = solve_lsi(A, y_w, G, h, names)
         e = y_w - A @ theta
         return A, theta, active, condition, float(e @ e)
@@ -827,8 +839,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
                 theta_s = solve_lsi(A_s, y_w[settled], G, h, names)[0]
                 state = demagnetised.copy()
                 for _ in range(3):
-                    state = refine_state(state, np.column_stack([design(state, low_w, high_w, u_w), extra_w]),
-                                         theta_s)
+                    state = refine_state(state, window_design(state), theta_s)
                 state = polish_state(state, theta_s)
                 starts.insert(0, (state, theta_s))
             except IdentificationError:

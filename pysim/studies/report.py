@@ -101,11 +101,26 @@ def rig_report(study, rows, bandwidths, monte_carlo, figures: dict, settings: di
                   f"{monte_carlo['draws']} compensators drawn around the identified one (weights "
                   f"±{monte_carlo['spread']['weights'] * 100:g} %, a2 ±{monte_carlo['spread']['a2'] * 100:g} %, "
                   f"a1 ±{monte_carlo['spread']['a1'] * 100:g} %, 1 σ), A = {monte_carlo['amplitude_um']:g} µm:",
-                  "", "| configuration | e_m 5 % / median / 95 % | e_rms 5 % / median / 95 % |", "|---|---|---|"]
+                  "", "| configuration | e_m 5 % / median / 95 % | e_rms 5 % / median / 95 % "
+                  "| −3 dB normalised (Hz) | −3 dB vs desired A (Hz) |", "|---|---|---|---|---|"]
+
+        def spread(b):
+            if b is None:
+                return "not crossed"
+            note = "" if b["crossed"] == monte_carlo["draws"] else f" ({b['crossed']} crossed)"
+            return f"{b['p5']:.0f} / {b['median']:.0f} / {b['p95']:.0f}{note}"
+
         for path, s in monte_carlo["summary"].items():
             m, r = s["max_error_pct"], s["rms_error_pct"]
             lines.append(f"| {path} | {m['p5']:.2f} / {m['median']:.2f} / {m['p95']:.2f} | "
-                         f"{r['p5']:.2f} / {r['median']:.2f} / {r['p95']:.2f} |")
+                         f"{r['p5']:.2f} / {r['median']:.2f} / {r['p95']:.2f} | "
+                         + (f"{spread(s.get('minus3db_normalised_hz'))} | {spread(s.get('minus3db_vs_desired_hz'))} |"
+                            if monte_carlo.get("sweep") else "— | — |"))
+        if monte_carlo.get("sweep"):
+            sweep = monte_carlo["sweep"]
+            lines += ["", f"Bandwidths from a stepped sine of each draw at A = {monte_carlo['amplitude_um']:g} µm, "
+                          f"{sweep['points']} frequencies from {sweep['f_min_hz']:.0f} to {sweep['f_max_hz']:.0f} Hz "
+                          "(coarser than the sweep above, so the crossing is interpolated over wider steps)."]
         lines.append("")
     lines += [
         "## What sets each number",

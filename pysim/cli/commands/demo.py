@@ -133,8 +133,11 @@ def run(args) -> int:
           f"-3 dB {_hz(stage_facts['minus3db_hz'])} Hz")
     if monte_carlo:
         for path, s in monte_carlo["summary"].items():
+            band = s.get("minus3db_normalised_hz")
             print(f"  Monte-Carlo {path}: e_rms median {s['rms_error_pct']['median']:.2f} % "
-                  f"(5-95 %: {s['rms_error_pct']['p5']:.2f}-{s['rms_error_pct']['p95']:.2f})")
+                  f"(5-95 %: {s['rms_error_pct']['p5']:.2f}-{s['rms_error_pct']['p95']:.2f})"
+                  + (f", -3 dB median {band['median']:.0f} Hz (5-95 %: {band['p5']:.0f}-{band['p95']:.0f})"
+                     if band else ""))
     print()
     print("rig.ssp: the rig (feedback + compensated) as connected FMUs, for fmpy.ssp.simulate_ssp or your tool")
     print(f"wrote {', '.join(list(FIGURES.values()) + ['report.md', 'results.json', 'rig.ssp'])} to {out} "

@@ -1,4 +1,5 @@
-"""``pysim track``: tracking errors for the paper's Table III references, with and without compensation."""
+"""``pysim track``: tracking errors for the paper's Table III references or the user's own
+(sines, or a reference CSV), with and without compensation."""
 from __future__ import annotations
 
 import json
@@ -10,10 +11,12 @@ from pysim.cli.errors import UserError
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
-        "track", help="tracking errors e_m and e_rms for x_d = A sin(2πt) + 37.5 µm (Table III)",
-        description="Run the paper's Table III references through the co-simulated chain with and "
-                    "without the inverse compensator and print e_m (max |error|) and e_rms in % of "
-                    "the reference range (eq. 14-15), next to the paper's figures.")
+        "track", help="tracking errors e_m and e_rms for x_d = A sin(2πt) + 37.5 µm (Table III) or your reference",
+        description="Run the paper's Table III references (or sines of your amplitudes, offset and "
+                    "frequency, or a reference CSV) through the co-simulated chain with and without the "
+                    "inverse compensator and print e_m (max |error|) and e_rms in % of the reference "
+                    "range (eq. 14-15), next to the paper's figures where they apply.  Warns when a "
+                    "reference leaves the range the actuator reaches.")
     add_track_arguments(parser)
     add_chain_arguments(parser)
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
@@ -31,6 +34,11 @@ def add_track_arguments(parser) -> None:
     group.add_argument("--offset", type=float, default=37.5, metavar="UM", help="reference offset, µm (default 37.5)")
     group.add_argument("--frequency", type=float, default=1.0, metavar="HZ",
                        help="reference frequency, Hz (default 1; the step must divide its period)")
+    group.add_argument("--reference", metavar="CSV",
+                       help="track this reference instead of sines: a CSV with header time_s,displacement_um "
+                            "(µm) on a uniform time grid, whose sample period becomes the step")
+    group.add_argument("--score-from", type=float, default=0.0, metavar="S",
+                       help="with --reference: take the errors from this time on, s (default 0: every sample)")
 
 
 def check_track_arguments(args) -> None:
@@ -61,7 +69,69 @@ def tracking_json(rows, args, warnings=()) -> dict:
             "tracking": rows}
 
 
+def load_user_reference(args) -> tuple:
+    """``(reference_um, step_s, first_scored)`` of ``--reference`` (checked)."""
+    import numpy as np
+
+    from pysim.identification.data import load_reference
+    from pysim.identification.errors import DataError
+
+    if args.amplitudes:
+        raise UserError("give either --reference or --amplitudes, not both")
+    try:
+        time, reference, rate = load_reference(args.reference)
+    except DataError as exc:
+        raise UserError(str(exc)) from exc
+    steps = np.diff(time)
+    step = 1.0 / rate
+    worst = int(np.argmax(np.abs(steps - step)))
+    if abs(steps[worst] - step) > 1e-6 * step:
+        raise UserError(f"{args.reference}: the time grid is not uniform (step {steps[worst]:.6g} s after "
+                        f"t = {time[worst]:.6g} s against a mean of {step:.6g} s); the chain steps at a fixed "
+                        "period, so resample the reference")
+    if not (math.isfinite(args.score_from) and time[0] <= args.score_from < time[-1]):
+        raise UserError(f"--score-from must lie within the reference's time, {time[0]:g} to {time[-1]:g} s, "
+                        f"got {args.score_from}")
+    first = int(np.searchsorted(time, args.score_from - 1e-9 * step))
+    if not np.ptp(reference[first:]) > 0:
+        raise UserError(f"{args.reference}: the reference is constant from t = {time[first]:g} s on; "
+                        "errors are % of its range")
+    return reference, step, first
+
+
+def run_reference(args) -> int:
+    """``pysim track --reference CSV``."""
+    import sys
+
+    from pysim.cli.progress import Progress
+    from pysim.cosim.tracking import reference_warnings, track_reference
+
+    reference, step, first = load_user_reference(args)
+    chain = open_chain(args, step_s=step)
+    try:
+        warnings = reference_warnings(chain.sim, {args.reference: reference})
+        for message in warnings:
+            print(f"pysim track: warning: {message}", file=sys.stderr)
+        with Progress(2, "tracking") as progress:
+            errors, _ = track_reference(chain.sim, chain.drive, reference, step, first, progress=progress)
+    finally:
+        chain.close()
+    if args.json:
+        print(json.dumps({"reference": args.reference, "samples": int(reference.size), "step_s": step,
+                          "scored_from_sample": first, "measured_on": "stage displacement",
+                          "warnings": warnings, "tracking": [{"reference": args.reference, **errors}]}, indent=2))
+    else:
+        print(f"Tracking errors for {args.reference} ({reference.size} samples at {step:g} s, scored from "
+              f"sample {first}), % of the reference range")
+        for path in ("uncompensated", "compensated"):
+            e = errors[path]
+            print(f"  {path:14s} e_m {e['max_error_pct']:8.3f} %   e_rms {e['rms_error_pct']:8.3f} %")
+    return 0
+
+
 def run(args) -> int:
+    if getattr(args, "reference", None):
+        return run_reference(args)
     check_track_arguments(args)
     from pysim.cli.progress import Progress
     from pysim.cosim.tracking import TABLE_III_AMPLITUDES_UM, format_table, track
