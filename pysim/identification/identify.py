@@ -664,10 +664,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         probe_matrix = design(state0, low_w, high_w, u_w)
         norms = np.linalg.norm(probe_matrix, axis=0)
         norms[norms == 0] = 1.0
-        # pivoted QR of the small triangular factor: the same pivots and |diag R| as of the tall
-        # matrix (column norms are kept by the orthogonal factor), at a fraction of the cost
-        R_plain = np.linalg.qr(probe_matrix / norms, mode="r")
-        _, R_probe, pivots = scipy.linalg.qr(R_plain, mode="economic", pivoting=True)
+        # only R and the pivots: forming Q would cost more than the whole fit
+        R_probe, pivots = scipy.linalg.qr(probe_matrix / norms, mode="r", pivoting=True)
         diagonal = np.abs(np.diag(R_probe))
         rank = int(np.count_nonzero(diagonal > RANK_TOLERANCE * diagonal[0]))
         dependent_ops = [i for i in own if column_of[i] in set(pivots[rank:].tolist())]
