@@ -69,6 +69,23 @@ def test_second_record_names_the_cause_and_recovers_the_sensor_shift(plant):
     assert "prediction_um" not in j["evidence"]["candidates"]["delay"]["validation"]
 
 
+def test_a_second_record_does_not_let_a_timing_shift_hide_a_lag(plant):
+    """Truth: no effect.  A one-sample delay added to a model must cost it on the second record
+    (the timing is the logger's, the same for every model, so it is not re-fitted per model)."""
+    from pysim.core.extended import ExtendedModel, StageSpec
+    from pysim.diagnosis.candidates import CandidateFit
+    from pysim.diagnosis.validation import score_on_record
+
+    v = multisine(plant, 8000, 5)
+    y = noisy(plant.simulate(v), 6)
+    plain = ExtendedModel(plant, StageSpec(sample_period_s=1.0 / FS))
+    lagging = ExtendedModel(plant, StageSpec(sample_period_s=1.0 / FS, delay_samples=1.0))
+    scores = {name: score_on_record(CandidateFit(name, model, None, {}), v, y, 1.0 / FS, plant.voltage_range_V)
+              for name, model in (("plain", plain), ("lagging", lagging))}
+    assert scores["plain"]["timing_samples"] == scores["lagging"]["timing_samples"] == 0
+    assert scores["lagging"]["mse_um2"] > 2.0 * scores["plain"]["mse_um2"]
+
+
 def test_second_record_at_another_sample_rate_is_one_clear_error(plant):
     v = multisine(plant, 4000, 1)
     y = plant.simulate(v)

@@ -36,9 +36,9 @@ Procedure (``diagnose``):
    above the noise, or no candidate is significant while the residual stays
    far above the noise, the verdict is ``unexplained``, with the evidence.
 5. **Second record** (``validate=``): every model fitted on the first record is
-   scored on a second record of the same actuator (its initial operator state,
-   the sensor offset and gain, and one sample of timing re-fitted and
-   reported); the cause is then named by that record.  Without one, a split of
+   scored on a second record of the same actuator (its initial operator state
+   and the sensor offset and gain re-fitted and reported); the cause is then
+   named by that record.  Without one, a split of
    different character (train on the slowest blocks, score on the fastest) is
    reported beside the cross-validation.
 6. **Gain**: cross-validated max and RMS error (% of the measured range of
@@ -836,7 +836,7 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity):
              for ev in [baseline, richer, *candidates.values()]}
     return {"noise_um": noise2, "cause": verdict["cause"], "causes": list(verdict["causes"]), "table": table,
             "note": "every model fitted on the first record; on the second its initial operator state, the "
-                    "sensor offset and gain and one sample of timing are re-fitted; scored where the input "
+                    "sensor offset and gain are re-fitted; scored where the input "
                     "stays inside the first record's range"}, verdict
 
 

@@ -330,10 +330,10 @@ def summary_markdown(d: Diagnosis) -> str:
     ]
     if d.validation:
         lines += ["## Second record", "", d.validation["note"] + ".", "",
-                  "| model | RMS % | max % | offset µm | gain | timing (samples) |", "| --- | ---: | ---: | ---: | ---: | ---: |"]
+                  "| model | RMS % | max % | offset µm | gain |", "| --- | ---: | ---: | ---: | ---: |"]
         for cause, row in d.validation["table"].items():
             lines.append(f"| {cause} | {row['rms_pct']:.3f} | {row['max_pct']:.3f} | {row['offset_um']:+.4g} | "
-                         f"{row['gain']:.4g} | {row['timing_samples']:+d} |")
+                         f"{row['gain']:.4g} |")
         lines += ["", f"Cause by the second record: `{d.validation['cause']}`; by cross-validation alone: "
                       f"`{d.cross_validation_cause}`.", ""]
     if d.excitation is not None:

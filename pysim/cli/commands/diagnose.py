@@ -125,8 +125,8 @@ def format_text(result, report, out) -> str:
         lines.append(f"    {cause}: {text}")
     if result.validation:
         table = result.validation["table"]["baseline"]
-        lines.append(f"\n  second record (baseline re-fit: offset {table['offset_um']:+.4g} µm, gain {table['gain']:.4g}, "
-                     f"timing {table['timing_samples']:+d} samples): cause {result.validation['cause']}; "
+        lines.append(f"\n  second record (baseline re-fit: offset {table['offset_um']:+.4g} µm, gain {table['gain']:.4g}): "
+                     f"cause {result.validation['cause']}; "
                      f"cross-validation alone: {result.cross_validation_cause}")
     if result.excitation is not None:
         lines.append(f"\n  {len(result.causes)} causes explain the residual equally well: write the separating "
