@@ -169,16 +169,17 @@ def test_track_reference_csv_equals_the_same_sine_given_by_amplitude(default_fmu
             assert file_row[path][key] == pytest.approx(sine_row[path][key], rel=1e-9, abs=1e-12)
 
 
-@pytest.mark.parametrize("case", ["uneven", "constant", "both", "late"])
+@pytest.mark.parametrize("case", ["uneven", "constant", "both", "late", "step"])
 def test_track_reference_refuses_what_it_cannot_use(default_fmus, tmp_path, case):
     plant, inverse = default_fmus
     csv = tmp_path / "reference.csv"
     times = [0.0, 0.001, 0.0025, 0.003] if case == "uneven" else [0.0, 0.001, 0.002, 0.003]
     values = [30.0, 30.0, 30.0, 30.0] if case == "constant" else [30.0, 31.0, 32.0, 31.0]
     csv.write_text("time_s,displacement_um\n" + "".join(f"{t},{x}\n" for t, x in zip(times, values)))
-    extra = {"both": ["--amplitudes", "10"], "late": ["--score-from", "5"]}.get(case, [])
+    extra = {"both": ["--amplitudes", "10"], "late": ["--score-from", "5"], "step": ["--step", "1e-4"]}.get(case, [])
     result = pysim("track", "--plant", plant, "--inverse", inverse, "--reference", csv, *extra)
     assert result.returncode == 2
     assert len(result.stderr.strip().splitlines()) == 1
-    assert {"uneven": "not uniform", "constant": "constant", "both": "not both", "late": "--score-from"}[case] \
+    assert {"uneven": "not uniform", "constant": "constant", "both": "not both", "late": "--score-from",
+            "step": "leave --step out"}[case] \
         in result.stderr

@@ -25,8 +25,9 @@ def register(subparsers) -> None:
 
 def add_track_arguments(parser) -> None:
     group = parser.add_argument_group("tracking")
-    group.add_argument("--step", type=float, default=1e-4, metavar="S",
-                       help="communication step, s (default 1e-4; must divide the 1 s period)")
+    group.add_argument("--step", type=float, default=None, metavar="S",
+                       help="communication step, s (default 1e-4; must divide the reference's period; with "
+                            "--reference the file's sample period is the step)")
     group.add_argument("--periods", type=int, default=2,
                        help="periods simulated; errors over the last one (default 2)")
     group.add_argument("--amplitudes", type=float, nargs="+", default=None, metavar="UM",
@@ -78,6 +79,8 @@ def load_user_reference(args) -> tuple:
 
     if args.amplitudes:
         raise UserError("give either --reference or --amplitudes, not both")
+    if args.step is not None:
+        raise UserError("--step is the reference file's sample period; leave --step out with --reference")
     try:
         time, reference, rate = load_reference(args.reference)
     except DataError as exc:
@@ -132,6 +135,8 @@ def run_reference(args) -> int:
 def run(args) -> int:
     if getattr(args, "reference", None):
         return run_reference(args)
+    if args.step is None:
+        args.step = 1e-4
     check_track_arguments(args)
     from pysim.cli.progress import Progress
     from pysim.cosim.tracking import TABLE_III_AMPLITUDES_UM, format_table, track
