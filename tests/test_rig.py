@@ -131,7 +131,8 @@ def test_the_default_rig_loop_is_stable_with_margin():
     pi = rig.controller
     loop = (pi.kp_V_per_um + pi.ki_V_per_um_s * rig.step_s / (z - 1)) / z ** 4 * 0.5 * control.tf(
         control.sample_system(rig.stage, rig.step_s, "zoh"))
-    gain_margin, _, _, _ = control.margin(loop)
+    # evaluated on the frequency response (the polynomial route is ill-conditioned for this order)
+    gain_margin, _, _, _, _, _ = control.stability_margins(loop, method="frd")
     assert 20 * math.log10(gain_margin) > 6.0
     assert np.max(np.abs(control.poles(linear_loop(rig, 0.5)))) < 1.0
 
