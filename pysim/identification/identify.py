@@ -698,16 +698,20 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     extra_matrix = np.column_stack(list(extras.values())) if extras else np.zeros((v.size, 0))
     extra_w = extra_matrix[rows]
 
-    # Rows outside the transient do not depend on the state: build them once
-    # and rewrite only the transient rows for each state tried.
-    window_base = np.column_stack([design(state0, low_w, high_w, u_w), extra_w])
-    low_t, high_t, u_t = low_w[transient_rows], high_w[transient_rows], u_w[transient_rows]
+    # Rows outside the transient do not depend on the state: the first matrix
+    # built is kept, and for every further state only its transient rows are
+    # rewritten (a fit without state estimation builds one matrix, as before).
+    window_base = []
 
     def window_design(state):
         """The fitted rows' design matrix (hysteresis columns, then extras) for ``state``."""
-        A = window_base.copy()
+        if not window_base:
+            window_base.append(np.column_stack([design(state, low_w, high_w, u_w), extra_w]))
+            return window_base[0]
+        A = window_base[0].copy()
         if transient_rows.size:
-            A[transient_rows, :n_hyst] = design(state, low_t, high_t, u_t)
+            k = transient_rows
+            A[k, :n_hyst] = design(state, low_w[k], high_w[k], u_w[k])
         return A
 
     def solve(state):
