@@ -928,8 +928,20 @@ def start_transient(voltage_V, displacement_um, **settings) -> int:
     """
     v = np.asarray(voltage_V, dtype=float)
     y = np.asarray(displacement_um, dtype=float)
-    residual = y - identify(v, y, require_excitation=False, **settings).prediction_um
-    n_head = max(v.size // 50, 1)
+    return settling_samples(y - identify(v, y, require_excitation=False, **settings).prediction_um)
+
+
+def settling_samples(residual_um) -> int:
+    """The rule of :func:`start_transient` on the residual of a fit of every
+    sample (for a caller that has that fit already).
+
+    Examples
+    --------
+    >>> settling_samples(np.concatenate(([30.0, 12.0], 0.01 * np.sin(np.arange(998)))))
+    2
+    """
+    residual = np.asarray(residual_um, dtype=float)
+    n_head = max(residual.size // 50, 1)
     rest = residual[n_head:]
     scale = float(np.sqrt(np.mean((rest - np.mean(rest)) ** 2))) if rest.size else 0.0
     # the fit that includes the transient bends its initial state towards it, so a few samples after

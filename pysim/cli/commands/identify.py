@@ -58,7 +58,7 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from pysim.core.spec import model_name_from_path, write_spec
-    from pysim.identification.identify import IdentificationError, identify, start_transient
+    from pysim.identification.identify import IdentificationError, identify, settling_samples
 
     if args.operators < 1:
         raise UserError(f"--operators must be at least 1, got {args.operators}")
@@ -73,25 +73,27 @@ def run(args) -> int:
             raise UserError(f"{args.out}: folder {out_dir} does not exist")
     data = load_data(args)
     warmup = "auto" if args.warmup == "auto" else int(args.warmup)
+
+    def fit(kind, first_sample=0):
+        try:
+            return identify(
+                data.voltage_V, data.displacement_um, n_operators=args.operators, model=kind,
+                operator=args.operator, warmup=warmup, fit_slice=slice(first_sample, None), name=name,
+                description=f"{kind.upper()} model identified from {Path(data.source).name} by pysim identify")
+        except IdentificationError as exc:
+            raise UserError(f"{data.source}: {exc}") from exc
+
+    chosen = fit(args.model)
     transient = 0
     if warmup == "auto":
         # a logger or amplifier settling at the start that no operator state explains is left out of
         # the fit (the state at the first sample is still estimated, so nothing else changes)
-        try:
-            transient = start_transient(data.voltage_V, data.displacement_um, n_operators=args.operators,
-                                        model=args.model, operator=args.operator)
-        except IdentificationError as exc:
-            raise UserError(f"{data.source}: {exc}") from exc
-    results = {}
-    for kind in ("mpi", "cpi"):
-        try:
-            results[kind] = identify(
-                data.voltage_V, data.displacement_um, n_operators=args.operators, model=kind,
-                operator=args.operator, warmup=warmup, fit_slice=slice(transient, None), name=name,
-                description=f"{kind.upper()} model identified from {Path(data.source).name} by pysim identify")
-        except IdentificationError as exc:
-            raise UserError(f"{data.source}: {exc}") from exc
-    chosen = results[args.model]
+        transient = settling_samples(data.displacement_um - chosen.prediction_um)
+        if transient:
+            chosen = fit(args.model, transient)
+    other = "cpi" if args.model == "mpi" else "mpi"
+    results = {args.model: chosen, other: fit(other, transient)}
+    results = {kind: results[kind] for kind in ("mpi", "cpi")}
     if args.out:
         write_spec(chosen.model, args.out,
                    header=f"{args.model.upper()} model ({args.operators} {args.operator} operators) "
