@@ -235,15 +235,10 @@ class RigStudy:
                 progress.update()
         summary = {}
         for path, values in out.items():
-            summary[path] = {key: {"p5": float(np.percentile([v[key] for v in values], 5)),
-                                   "median": float(np.median([v[key] for v in values])),
-                                   "p95": float(np.percentile([v[key] for v in values], 95))}
-                             for key in ("max_error_pct", "rms_error_pct")}
+            summary[path] = {key: _percentiles([v[key] for v in values]) for key in ("max_error_pct", "rms_error_pct")}
             for key in ("minus3db_normalised_hz", "minus3db_vs_desired_hz"):
                 crossed = [b[key] for b in bandwidths[path] if b[key] is not None]
-                summary[path][key] = ({"p5": float(np.percentile(crossed, 5)), "median": float(np.median(crossed)),
-                                       "p95": float(np.percentile(crossed, 95)), "crossed": len(crossed)}
-                                      if crossed else None)
+                summary[path][key] = {**_percentiles(crossed), "crossed": len(crossed)} if crossed else None
         return {"draws": draws, "amplitude_um": amplitude_um, "spread": {"weights": weight_spread, "a2": a2_spread,
                                                                         "a1": a1_spread},
                 "sweep": None if not sweep_points else {"points": int(frequencies.size),
@@ -265,6 +260,12 @@ def bandwidth_summary(results, drop_db: float = -3.0) -> dict:
             "low_frequency_gain": float(r.gain[0]),
         }
     return summary
+
+
+def _percentiles(values) -> dict:
+    """5 %, median and 95 % points of ``values``."""
+    return {"p5": float(np.percentile(values, 5)), "median": float(np.median(values)),
+            "p95": float(np.percentile(values, 95))}
 
 
 def _finite(x):
