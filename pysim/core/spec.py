@@ -141,12 +141,10 @@ def spec_source(model, header: str = "") -> str:
 
     Examples
     --------
-    >>> from pysim.core.extended import ExtendedModel
-from pysim.core.model import HysteresisModel
+    >>> from pysim.core.model import HysteresisModel
     >>> print(spec_source(HysteresisModel(0.0, 0.5, (0.0,), (0.1,)), "a line plant"))  # doctest: +ELLIPSIS
     \"\"\"a line plant\"\"\"
-    from pysim.core.extended import ExtendedModel
-from pysim.core.model import HysteresisModel
+    from pysim.core.model import HysteresisModel
     <BLANKLINE>
     MODEL = HysteresisModel(
         a1=0.0,
