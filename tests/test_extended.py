@@ -15,6 +15,7 @@ from pysim.core.extended import (
     StageSpec,
     _library,
     tustin_creep_mode,
+    tustin_displacement_creep,
     tustin_first_order,
     tustin_second_order,
 )
@@ -63,6 +64,68 @@ def test_tustin_creep_mode_matches_scipy_bilinear():
 
 
 # ---------------------------------------------------------------- C stages
+
+def _parallel_displacement_creep(taus, shares, x):
+    """1 - Σ s_j + Σ s_j/(τ_j s + 1) as written, each mode by scipy's bilinear transform, from rest at 0."""
+    y = (1.0 - sum(shares)) * x
+    for tau, share in zip(taus, shares):
+        b, a = scipy.signal.bilinear([1.0], [tau, 1.0], fs=1 / T)
+        y = y + share * scipy.signal.lfilter(b, a, x)
+    return y
+
+
+@pytest.mark.parametrize("taus, shares", [
+    ((0.01,), (0.2,)),
+    ((0.003, 0.03, 0.3), (0.05, 0.1, 0.02)),
+    (tuple(3e-3 * np.geomspace(1.0, 3e4, 10)), (0.03,) * 10),        # poles crowding at z = 1
+    ((0.002, 0.002, 2.0), (0.1, 0.2, 0.6)),                          # equal τ, most of it creeping
+])
+def test_displacement_creep_cascade_is_the_parallel_form(rng, taus, shares):
+    sections = tustin_displacement_creep(taus, shares, T)
+    assert all(s[2] == 0.0 and s[4] == 0.0 for s in sections)        # first-order sections
+    assert [round((b0 + b1) / (1 + a1), 12) for b0, b1, _, a1, _ in sections] == [1.0] * len(sections)
+    x = rng.normal(size=30000)
+    y, _ = OutputStages(sections).run(x, state=np.zeros(2 * len(sections)))
+    expected = _parallel_displacement_creep(taus, shares, x)
+    assert np.max(np.abs(y - expected)) <= 1e-9 * np.max(np.abs(expected))
+
+
+def test_displacement_creep_step_is_the_creep_law():
+    """After a unit step the output jumps to 1 - Σ s_j and creeps to 1 along
+    1 - Σ s_j exp(-t/τ_j) (the continuous law; Tustin is within O((T/τ)²) of it)."""
+    taus, shares = (0.02, 0.2, 2.0), (0.05, 0.05, 0.1)
+    stages = StageSpec(sample_period_s=T, displacement_creep_time_constants_s=taus,
+                       displacement_creep_shares=shares)
+    n = 8000
+    y, _ = stages.runner.run(np.r_[0.0, np.ones(n)], np.zeros(n + 1), np.arange(n + 1.0))
+    t = (np.arange(1, n + 1) - 0.5) * T          # Tustin's step is centred half a sample early
+    law = 1.0 - sum(s * np.exp(-t / tau) for tau, s in zip(taus, shares))
+    assert np.max(np.abs(y[1:] - law)) < 5e-4
+    assert np.all(np.diff(y[1:]) > 0) and stages.static_gain() == pytest.approx(1.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("shares, message", [
+    ((0.5, 0.6), "sum to less than 1"),
+    ((-0.1, 0.2), ">= 0"),
+    ((0.1,), "2 displacement creep time constants but 1"),
+])
+def test_invalid_displacement_creep_is_refused(shares, message):
+    with pytest.raises(ValueError, match=message):
+        StageSpec(sample_period_s=T, displacement_creep_time_constants_s=(0.01, 0.1),
+                  displacement_creep_shares=shares)
+
+
+def test_displacement_creep_spec_round_trip(tmp_path):
+    model = _extended(paper_model(voltage_range=(0.0, 1.0)), sample_period_s=T,
+                      displacement_creep_time_constants_s=(0.01, 0.3), displacement_creep_shares=(0.05, 0.1))
+    loaded = load_spec(write_spec(model, tmp_path / "creeping.py"))
+    assert loaded == model
+    v = paper_input(3001, 6.0)
+    np.testing.assert_array_equal(loaded.simulate(v), model.simulate(v))
+    h = model.hysteresis.simulate(v)
+    np.testing.assert_allclose(model.simulate(v), _parallel_displacement_creep(
+        (0.01, 0.3), (0.05, 0.1), h - h[0]) + h[0], rtol=0, atol=1e-12 * np.ptp(h))
+
 
 def test_sections_match_lfilter_from_rest(rng):
     x = np.cumsum(rng.normal(size=3000)) + 5.0

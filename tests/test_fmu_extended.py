@@ -35,6 +35,8 @@ STAGES = {
     "delay": dict(delay_samples=3.4),
     "creep": dict(creep_time_constants_s=(0.01, 0.1), creep_weights_um_per_V=(0.02, 0.04)),
     "drift": dict(drift_coefficients=(0.5, -0.2)),
+    "displacement_creep": dict(displacement_creep_time_constants_s=(0.002, 0.02, 0.2),
+                               displacement_creep_shares=(0.04, 0.05, 0.06)),
     "combination": dict(lag_time_constant_s=1e-3, resonance_hz=300.0, damping_ratio=0.2, delay_samples=2.0,
                         creep_time_constants_s=(0.05,), creep_weights_um_per_V=(0.03,),
                         drift_coefficients=(0.1, 0.05, -0.01)),
@@ -108,7 +110,7 @@ def _bilinear_rest(b, a, x):
     return y
 
 
-@pytest.mark.parametrize("kind", ["lag", "second_order", "delay", "creep", "drift"])
+@pytest.mark.parametrize("kind", ["lag", "second_order", "delay", "creep", "drift", "displacement_creep"])
 def test_plant_fmu_stages_match_independent_implementations(kind):
     """FMU output against the hysteresis output passed through each stage as
     written from its definition (continuous stages: scipy's bilinear
@@ -134,6 +136,12 @@ def test_plant_fmu_stages_match_independent_implementations(kind):
         expected = h.copy()
         for tau, weight in zip(p["creep_time_constants_s"], p["creep_weights_um_per_V"]):
             expected += weight * _bilinear_rest(*scipy.signal.bilinear([1.0], [tau, 1.0], fs=1 / T), u)
+    elif kind == "displacement_creep":
+        # the parallel form 1 - Σ s_j + Σ s_j/(τ_j s + 1) that the FMU runs as a factored cascade
+        shares = p["displacement_creep_shares"]
+        expected = (1.0 - sum(shares)) * h
+        for tau, share in zip(p["displacement_creep_time_constants_s"], shares):
+            expected += share * _bilinear_rest(*scipy.signal.bilinear([1.0], [tau, 1.0], fs=1 / T), h)
     else:
         expected = h + sum(c * t ** (j + 1) for j, c in enumerate(p["drift_coefficients"]))
     assert np.max(np.abs(y - expected)) <= 1e-9 * np.ptp(h)

@@ -10,6 +10,11 @@ actuators show beyond that (see :mod:`pysim.diagnosis.diagnose`)::
   ``1/(τ s + 1)`` and/or a second-order resonance
   ``ω²/(s² + 2 ζ ω s + ω²)`` (``lag_time_constant_s``, ``resonance_hz``,
   ``damping_ratio``);
+  and/or creep of the displacement itself, ``1 − Σ_j s_j + Σ_j s_j/(τ_j s + 1)``
+  (``displacement_creep_time_constants_s``, ``displacement_creep_shares``: after
+  a step the output jumps to ``1 − Σ s_j`` of its new value and creeps the rest
+  of the way, the classic ``y(t) = y_0 (1 + γ log t)`` creep of a piezo stack,
+  proportional to the displacement reached);
 - ``D``: a pure delay of ``delay_samples`` sample periods (a fraction is
   linear interpolation between two samples);
 - ``C_j``: creep modes, first-order lags ``1/(τ_j s + 1)`` of the shifted
@@ -35,6 +40,7 @@ import math
 from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
+import scipy.optimize
 
 from pysim.core import kernel as _kernel
 from pysim.core.errors import ModelError
@@ -119,6 +125,62 @@ def tustin_creep_mode(time_constant_s: float, sample_period_s: float):
     (the bilinear transform of ``1/(τ s + 1)``)."""
     tk = 2.0 * time_constant_s / sample_period_s
     return (tk - 1.0) / (tk + 1.0), 1.0 / (tk + 1.0)
+
+
+def tustin_displacement_creep(time_constants_s, shares, sample_period_s: float) -> list:
+    """First-order sections ``(b0, b1, 0, a1, 0)`` of displacement creep
+    ``G(s) = 1 − Σ s_j + Σ s_j / (τ_j s + 1)`` under the bilinear transform.
+
+    The parallel form is factored exactly into a cascade (the stage recursion
+    runs cascaded sections only): with the modes' poles ``α_j`` sorted
+    ascending, ``G(z) = K Π (z − ζ_j)/(z − α_j)`` where the zeros interlace
+    the poles -- ``ζ_1`` in ``(−1, α_1)`` and ``ζ_j`` in ``(α_{j−1}, α_j)`` --
+    because every share is positive, so each zero is found by bracketing
+    (well conditioned even when the poles crowd near ``z = 1``).  Each section
+    pairs a pole with the zero below it and has unit static gain, so ``G``
+    has unit static gain exactly.
+
+    Parameters
+    ----------
+    time_constants_s : sequence of float
+        τ_j > 0, s.
+    shares : sequence of float
+        s_j >= 0, with ``Σ s_j < 1`` (the instantaneous part ``1 − Σ s_j`` is positive).
+    sample_period_s : float
+
+    Examples
+    --------
+    >>> sections = tustin_displacement_creep((0.01, 0.1), (0.05, 0.05), 1e-3)
+    >>> len(sections), [round((b0 + b1) / (1 + a1), 12) for b0, b1, _, a1, _ in sections]
+    (2, [1.0, 1.0])
+    """
+    T = float(sample_period_s)
+    modes = {}
+    for tau, share in zip(time_constants_s, shares):
+        if share > 0:
+            alpha, beta = tustin_creep_mode(float(tau), T)
+            modes[alpha] = (modes.get(alpha, (0.0, beta))[0] + float(share), beta)   # equal τ: one mode
+    if not modes:
+        return []
+    alphas = np.array(sorted(modes))
+    weights = np.array([modes[a][0] * modes[a][1] for a in alphas])     # s_j β_j
+    direct = 1.0 - float(sum(m[0] for m in modes.values()))
+
+    def g(z):
+        return direct + float(np.sum(weights * (z + 1.0) / (z - alphas)))
+
+    sections = []
+    for j, alpha in enumerate(alphas):
+        # g falls from g(-1) = 1 - Σ s_j > 0 (or +inf just above the pole below) to -inf just below α_j
+        a = -1.0 if j == 0 else float(np.nextafter(alphas[j - 1], alpha))
+        b = float(np.nextafter(alpha, a))
+        if g(a) > 0.0 > g(b):
+            zero = scipy.optimize.brentq(g, a, b, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=500)
+        else:
+            zero = float(alpha)         # a share too small to move the zero off its pole: no section effect
+        k = (1.0 - alpha) / (1.0 - zero)
+        sections.append([k, -k * zero, 0.0, -float(alpha), 0.0])
+    return sections
 
 
 # ---------------------------------------------------------- running stages
@@ -257,6 +319,13 @@ class StageSpec:
         Creep mode time constants, s.
     creep_weights_um_per_V : tuple of float
         Creep mode weights, µm/V.
+    displacement_creep_time_constants_s : tuple of float
+        Time constants, s, of creep of the displacement itself (modes after the
+        hysteresis, driven by its output rather than by the input).
+    displacement_creep_shares : tuple of float
+        Share (>= 0, summing to less than 1) of a settled displacement that each
+        of those modes contributes: after a step the output jumps to
+        ``1 − Σ shares`` of its new value and creeps the rest.
     drift_coefficients : tuple of float
         ``p_1, p_2, ...``: drift ``Σ p_j t^j`` in µm, t in s since the start.
 
@@ -275,6 +344,8 @@ class StageSpec:
     creep_time_constants_s: tuple = ()
     creep_weights_um_per_V: tuple = ()
     drift_coefficients: tuple = ()
+    displacement_creep_time_constants_s: tuple = ()
+    displacement_creep_shares: tuple = ()
     _runner: OutputStages = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -294,9 +365,17 @@ class StageSpec:
             problems.append("creep time constants must be finite and > 0 s")
         if not all(math.isfinite(x) for x in weights + drift):
             problems.append("creep weights and drift coefficients must be finite")
+        d_taus = tuple(float(x) for x in self.displacement_creep_time_constants_s)
+        shares = tuple(float(x) for x in self.displacement_creep_shares)
+        if len(d_taus) != len(shares):
+            problems.append(f"{len(d_taus)} displacement creep time constants but {len(shares)} shares")
+        if not all(math.isfinite(x) and x > 0 for x in d_taus):
+            problems.append("displacement creep time constants must be finite and > 0 s")
+        if not (all(math.isfinite(x) and x >= 0 for x in shares) and sum(shares) < 1.0):
+            problems.append(f"displacement creep shares must be >= 0 and sum to less than 1, got {shares}")
         if not problems:
             uses_period = (self.lag_time_constant_s > 0 or self.resonance_hz > 0 or self.delay_samples > 0
-                           or taus or drift)
+                           or taus or drift or d_taus)
             if uses_period and not self.sample_period_s > 0:
                 problems.append("sample_period_s must be > 0 when a stage is present")
             if self.resonance_hz > 0 and not self.damping_ratio > 0:
@@ -310,6 +389,8 @@ class StageSpec:
         object.__setattr__(self, "creep_time_constants_s", taus)
         object.__setattr__(self, "creep_weights_um_per_V", weights)
         object.__setattr__(self, "drift_coefficients", drift)
+        object.__setattr__(self, "displacement_creep_time_constants_s", d_taus)
+        object.__setattr__(self, "displacement_creep_shares", shares)
         p = self.coefficients()
         object.__setattr__(self, "_runner", OutputStages(p["sections"], self.delay_samples, p["creep_alpha"],
                                                          p["creep_beta"], weights, drift))
@@ -329,6 +410,8 @@ class StageSpec:
             sections.append(tustin_first_order(self.lag_time_constant_s, T).tolist())
         if self.resonance_hz > 0:
             sections.append(tustin_second_order(self.resonance_hz, self.damping_ratio, T).tolist())
+        sections += tustin_displacement_creep(self.displacement_creep_time_constants_s,
+                                              self.displacement_creep_shares, T)
         creep = [tustin_creep_mode(tau, T) for tau in self.creep_time_constants_s]
         whole = math.floor(self.delay_samples)
         return {

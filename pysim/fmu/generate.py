@@ -294,6 +294,9 @@ def stage_summary(model) -> str:
     if stages.creep_time_constants_s:
         n = len(stages.creep_time_constants_s)
         parts.append(f"{n} creep mode{'s' if n > 1 else ''}")
+    if stages.displacement_creep_time_constants_s:
+        n = len(stages.displacement_creep_time_constants_s)
+        parts.append(f"{n} displacement creep mode{'s' if n > 1 else ''}")
     if stages.drift_coefficients:
         parts.append(f"drift of degree {len(stages.drift_coefficients)}")
     return " + ".join(parts) or "none"

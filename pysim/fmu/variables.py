@@ -152,6 +152,12 @@ def _stage_variables(model, first_vr: int) -> list:
             "fractions interpolate linearly)", "s", stages.delay_s)
     for j, tau in enumerate(stages.creep_time_constants_s, start=1):
         add(f"creep_time_constant[{j}]", "local", f"time constant of creep mode {j}", "s", tau)
+    for j, (tau, share) in enumerate(zip(stages.displacement_creep_time_constants_s,
+                                         stages.displacement_creep_shares), start=1):
+        add(f"displacement_creep_time_constant[{j}]", "local", f"time constant of displacement creep mode {j} "
+            "(driven by the hysteresis output)", "s", tau)
+        add(f"displacement_creep_share[{j}]", "local", f"share of a settled displacement that displacement "
+            f"creep mode {j} contributes", None, share)
     return out
 
 
