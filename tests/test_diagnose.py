@@ -76,7 +76,16 @@ def assert_admissible(fit):
         assert stages.static_gain() == pytest.approx(1.0, abs=1e-12)
         if stages.resonance_hz > 0:
             assert stages.damping_ratio > 0
-    if fit.cause == "creep":
+    if fit.cause == "creep" and fit.parameters["driven_by"] == "displacement":
+        shares = np.asarray(fit.parameters["shares"])
+        assert np.all(shares >= 0) and shares.sum() <= 0.5 + 1e-12    # creep follows the jump, it is not most of it
+        # a monotone creep: after a unit step of h the output jumps to 1 - Σ shares and rises to 1
+        step, _ = stages.runner.run(np.r_[0.0, np.ones(20000)], np.zeros(20001), np.arange(20001.0))
+        T, taus = stages.sample_period_s, np.asarray(fit.parameters["time_constants_s"])
+        first_sample = np.sum(shares * T / (2 * taus + T))      # what the modes pick up in the step's sample
+        assert 1 - shares.sum() - 1e-12 <= step[1] <= 1 - shares.sum() + first_sample + 1e-12
+        assert np.all(np.diff(step[1:]) >= -1e-12) and step[-1] <= 1 + 1e-12
+    elif fit.cause == "creep":
         weights = np.asarray(fit.parameters["weights_um_per_V"])
         tiny = 1e-9 * np.max(np.abs(weights))                       # the active-set solver's zeros
         assert np.all(weights >= -tiny) or np.all(weights <= tiny)  # no cancelling modes

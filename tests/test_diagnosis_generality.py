@@ -86,6 +86,66 @@ def test_a_second_record_does_not_let_a_timing_shift_hide_a_lag(plant):
     assert scores["lagging"]["mse_um2"] > 2.0 * scores["plain"]["mse_um2"]
 
 
+def lagged(plant, v, tau_s):
+    """The plant's output through an exact (zero-order-hold) first-order lag, at rest at the start."""
+    import scipy.signal
+    h = plant.simulate(v)
+    a = np.exp(-T / tau_s)
+    y, _ = scipy.signal.lfilter([1 - a], [1, -a], h, zi=[a * h[0]])
+    return y
+
+
+def test_a_second_record_too_quiet_to_decide_leaves_the_first_records_verdict(plant):
+    """Truth: a 1 ms lag on both records.  The second record comes through a logger ten times as
+    noisy, on which everything a model could still explain is below the noise: it cannot confirm
+    any effect, and the lag does not make it worse, so the first record's cross-validated verdict
+    stands (and the report says why)."""
+    v1, v2 = multisine(plant, 10000, 11), multisine(plant, 8000, 14)
+    y1, y2 = noisy(lagged(plant, v1, 1e-3), 12), noisy(lagged(plant, v2, 1e-3), 13, fraction=0.02)
+    d = diagnose(v1, y1, FS, validate=(v2, y2, FS))
+    assert "rate_dependence" in d.cross_validation_causes, d.why     # a small lag: maybe a named set
+    assert d.causes == d.cross_validation_causes and d.validation["verdict_by"] == "cross-validation", d.why
+    assert d.validation["confirms"] is False and "cannot confirm" in d.why
+
+
+def test_a_quiet_second_record_that_the_cause_makes_worse_overrules_it(plant):
+    """The first record shows a 10 ms lag; the second, of 'the same actuator' through a noisier
+    logger, shows none: the lag fitted on the first record raises the second record's error, so
+    it is not named even though that record is too quiet to confirm anything."""
+    v1, v2 = multisine(plant, 10000, 11), multisine(plant, 8000, 14)
+    y1, y2 = noisy(lagged(plant, v1, 1e-2), 12), noisy(plant.simulate(v2), 13, fraction=0.02)
+    d = diagnose(v1, y1, FS, validate=(v2, y2, FS))
+    assert "rate_dependence" in d.cross_validation_causes, d.why
+    assert d.cause == "none" and d.causes == (), d.why
+
+
+def test_creep_of_the_displacement_is_named_and_predicts_a_new_input(plant):
+    """Truth: the displacement creeps by a share of itself (y = h + Σ w_j lag_j[h], each lag an
+    exact exponential of the hysteresis output), the classic log-like creep of a stack.  It is
+    named creep, and the extended model predicts a third input it never saw better than the plain
+    fit."""
+    import scipy.signal
+
+    def creeping(v):
+        h = plant.simulate(v)
+        y = h.copy()
+        for tau, weight in ((0.01, 0.04), (0.1, 0.05), (1.0, 0.06)):
+            a = np.exp(-T / tau)
+            y += weight * scipy.signal.lfilter([1 - a], [1, -a], h, zi=[a * h[0]])[0]
+        return y
+
+    v1, v2, v3 = steps(plant, 12000, 21), multisine(plant, 10000, 22), steps(plant, 10000, 23)
+    d = diagnose(v1, noisy(creeping(v1), 24), FS, validate=(v2, noisy(creeping(v2), 25), FS))
+    assert d.cause == "creep", d.why
+    truth = creeping(v3)
+
+    def rms(model):
+        return float(np.sqrt(np.mean((model.simulate(v3)[500:] - truth[500:]) ** 2)))
+
+    assert d.extended.fit.parameters["driven_by"] == "displacement"
+    assert rms(d.extended.model) < 0.7 * rms(d.baseline.model)
+
+
 def test_second_record_at_another_sample_rate_is_one_clear_error(plant):
     v = multisine(plant, 4000, 1)
     y = plant.simulate(v)

@@ -262,3 +262,16 @@ def test_one_sided_and_classical_play_fits_are_the_same_model_class():
     assert play.objective == pytest.approx(osp.objective, rel=1e-9)
     fit = osp.fit_slice  # before it the two start from different (unknown-history) states
     np.testing.assert_allclose(play.prediction_um[fit], osp.prediction_um[fit], atol=1e-9)
+
+
+def test_a_record_between_two_levels_is_fitted_as_a_line_and_says_why():
+    """Steps between two voltages show no loop and no curvature: u³ is then a combination of u and
+    the offset, every operator of a straight line.  Without require_excitation the fit is the line
+    through the two levels, reported as not identifying the hysteresis; with it, one clear error."""
+    v = np.tile(np.r_[np.zeros(50), np.full(50, 100.0)], 20)
+    y = 3.0 + 0.2 * v
+    result = identify(v, y, require_excitation=False)
+    assert result.model.a1 == 0.0 and "2 distinct input levels" in result.unidentified_reason
+    np.testing.assert_allclose(result.prediction_um, y, atol=1e-9)
+    with pytest.raises(IdentificationError, match="2 distinct input levels"):
+        identify(v, y)

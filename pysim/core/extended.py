@@ -179,7 +179,7 @@ def tustin_displacement_creep(time_constants_s, shares, sample_period_s: float) 
         else:
             zero = float(alpha)         # a share too small to move the zero off its pole: no section effect
         k = (1.0 - alpha) / (1.0 - zero)
-        sections.append([k, -k * zero, 0.0, -float(alpha), 0.0])
+        sections.append([float(k), float(-k * zero), 0.0, -float(alpha), 0.0])
     return sections
 
 

@@ -24,12 +24,22 @@ Every family is physically admissible by construction:
 ``delay``
     ``y = D[h]``, a delay of ``d >= 0`` samples (fractions interpolate).
 ``creep``
-    ``y = h + Σ w_j C_j[u]`` with first-order modes ``C_j`` of the input, time
-    constants from three sample periods to a third of the record, two per
-    decade, and **non-negative** weights (in the direction of the actuator's
-    gain): a monotone, log-like step response, never cancelling modes.  The
-    hysteresis part is refitted with them, so the static gain stays the
-    measured one.
+    Two structures, the better one out of sample is kept:
+
+    - driven by the input, ``y = h + Σ w_j C_j[u]`` with first-order modes
+      ``C_j`` of the input, time constants from three sample periods to a
+      ninth of the record, two per decade, and **non-negative** weights (in
+      the direction of the actuator's gain): a monotone, log-like step
+      response, never cancelling modes.  The hysteresis part is refitted with
+      them, so the static gain stays the measured one;
+    - driven by the displacement, ``y = G[h]`` with
+      ``G = 1 − Σ s_j + Σ s_j C_j`` (shares ``s_j >= 0``, ``Σ s_j <= 0.5``, the
+      same time constants): the displacement reached creeps on by a share of
+      itself, the classic ``y_0 (1 + γ log t)`` law.  Its shares are bilinear
+      with the weights, so they start from an equation-error fit and are
+      refined by alternating non-negative least squares on the whole record;
+      the weights are then refitted on every training part with ``G`` fixed,
+      as for ``rate_dependence``.
 ``drift``
     ``y = h + p_1 t (+ p_2 t²)``: a smooth trend in time (degree 1 or 2).
 ``rate_dependent_hysteresis``
@@ -55,6 +65,7 @@ from pysim.core.extended import (
     OutputStages,
     StageSpec,
     tustin_creep_mode,
+    tustin_displacement_creep,
     tustin_first_order,
     tustin_second_order,
 )
@@ -65,6 +76,9 @@ from pysim.identification.identify import IdentificationError, IdentificationRes
 EFFECTS = ("rate_dependence", "creep", "delay", "drift", "rate_dependent_hysteresis", "slew_limit")
 #: Most rows the shape searches use (the last ones of the record).
 SEARCH_SAMPLES = 40000
+#: Largest share of a settled displacement that displacement creep may reach by creeping: creep
+#: follows the jump of a step, it is not most of it (a response that mostly arrives late is a lag).
+MAX_CREEP_SHARE = 0.5
 
 
 @dataclass
@@ -91,7 +105,7 @@ class Family:
         if self.cause == "rate_dependence":
             return int(p.get("order", 1))
         if self.cause == "creep":
-            return max(1, sum(1 for w in p.get("weights_um_per_V", []) if w > 0))
+            return max(1, sum(1 for w in p.get("weights_um_per_V", p.get("shares", [])) if w > 0))
         if self.cause == "drift":
             return int(p.get("degree", 1))
         if self.cause in ("delay", "rate_dependent_hysteresis", "slew_limit"):
@@ -300,8 +314,69 @@ class CandidateFitter:
             column, _ = mode.run(np.zeros_like(u), u)
             # the mode's lag behind the input: zero at rest, so the hysteresis keeps the static gain
             columns[f"creep_{j}"] = self.gain_sign * (column - u)
-        return self._with(base, "creep", parameters={"time_constants_s": taus.tolist()},
+        return self._with(base, "creep", parameters={"driven_by": "input", "time_constants_s": taus.tolist()},
                           extras=columns, nonnegative=tuple(columns), extra_sign=self.gain_sign)
+
+    def displacement_creep(self, base: Family, rounds: int = 3) -> Family:
+        """Creep driven by the hysteresis output (see the module notes).
+
+        The shares and weights are bilinear (``y = G[Aθ]``).  The start is the
+        equation-error fit ``y ≈ Aθ + Σ s_j (C_j[y] − y)`` (the measured output
+        stands in for ``h`` in the small creep terms; ``s >= 0`` by bounded
+        least squares), which lands next to the optimum where alternating from
+        the plain fit crawls (the plain fit has already absorbed part of the
+        creep into its weights).  A few alternating rounds then refine it: with
+        the weights fixed the shares are a non-negative fit of the residual by
+        ``C_j[h] − h``; with the shares fixed the weights are a linear fit of
+        the columns passed through ``G``.  The best round is kept.
+        """
+        taus = self.creep_time_constants_s()
+        A = self._design(base)
+        rows, y = self.search_rows, self.y[self.search_rows]
+        modes = [tustin_creep_mode(tau, self.T) for tau in taus]
+
+        def lags(x):
+            return np.column_stack([OutputStages(creep_alpha=[a], creep_beta=[b], creep_weights=[1.0]).run(
+                np.zeros_like(x), x)[0] - x for a, b in modes])
+
+        def refit(shares):
+            filtered = OutputStages(tustin_displacement_creep(taus, shares, self.T)).apply_to_columns(A)
+            theta = np.linalg.lstsq(filtered[rows], y, rcond=None)[0]
+            return theta, float(np.sum((y - filtered[rows] @ theta) ** 2))
+
+        def admissible(shares):
+            shares = np.maximum(shares, 0.0)
+            total = shares.sum()
+            return shares * (MAX_CREEP_SHARE / total) if total > MAX_CREEP_SHARE else shares
+
+        stacked = np.column_stack([A, lags(self.y)])[rows]
+        scale = np.linalg.norm(stacked, axis=0)
+        scale[scale == 0] = 1.0
+        lower = np.r_[np.full(A.shape[1], -np.inf), np.zeros(taus.size)]
+        start = scipy.optimize.lsq_linear(stacked / scale, y, bounds=(lower, np.inf)).x / scale
+        shares = admissible(start[A.shape[1]:])
+        theta, sse = refit(shares)
+        best = (sse, shares)
+        for _ in range(rounds):
+            h = A @ theta
+            shares, _ = scipy.optimize.nnls(lags(h)[rows], y - h[rows])
+            shares = admissible(shares)
+            theta, sse = refit(shares)
+            if sse >= best[0]:
+                break
+            best = (sse, shares)
+        shares = best[1]
+        keep = np.flatnonzero(shares > 0)
+        taus, shares = taus[keep], shares[keep]
+        if taus.size == 0:
+            raise DiagnosisError("no displacement creep mode lowers the error")
+        sections = tustin_displacement_creep(taus, shares, self.T)
+        return self._with(base, "creep",
+                          parameters={"driven_by": "displacement", "time_constants_s": taus.tolist(),
+                                      "shares": shares.tolist()},
+                          stages={"displacement_creep_time_constants_s": tuple(taus.tolist()),
+                                  "displacement_creep_shares": tuple(shares.tolist())},
+                          transform=OutputStages(sections))
 
     def drift(self, base: Family, degree: int) -> Family:
         time = np.arange(self.v.size) * self.T
@@ -375,7 +450,7 @@ class CandidateFitter:
         """The model of a fitted family, its state and prediction."""
         parameters = dict(family.parameters)
         stages = dict(family.stages)
-        if family.cause == "creep":
+        if family.cause == "creep" and family.extras:
             weights = [family.extra_sign * result.extra_coefficients[k] for k in family.extras]
             parameters["weights_um_per_V"] = weights
             # mode columns are (C_j[u] - u): the -Σw u part moves into a2

@@ -38,7 +38,16 @@ Procedure (``diagnose``):
 5. **Second record** (``validate=``): every model fitted on the first record is
    scored on a second record of the same actuator (its initial operator state
    and the sensor offset and gain re-fitted and reported); the cause is then
-   named by that record.  Without one, a split of
+   named by that record -- with two exceptions that follow from what a record
+   can show.  A second record on which the better rate-independent model is
+   already within ``2 NOISE_FRACTION`` σ² of its noise cannot confirm any
+   effect, so the first record's verdict stands unless its cause makes the
+   second record worse; a first record that close to its noise floor has
+   fitted every candidate's effect to noise, so the second record cannot
+   name one either.  And a candidate that the first record names and the
+   second finds significant too is named even when it leaves most of the
+   second record's residual (the rest is reported), rather than
+   ``unexplained``.  Without a second record, a split of
    different character (train on the slowest blocks, score on the fastest) is
    reported beside the cross-validation.
 6. **Gain**: cross-validated max and RMS error (% of the measured range of
@@ -580,11 +589,18 @@ def _reasons(candidates: dict, stats: dict) -> dict:
             hint = (f"residual-rate correlation {stats['rate_correlation']:+.2f}; "
                     f"{100 * stats['settling_fraction']:.0f} % of the residual power within 20 samples "
                     f"of an input change")
+        elif cause == "creep" and p.get("driven_by") == "displacement":
+            taus, shares = p["time_constants_s"], p["shares"]
+            shape = (f"creep of the displacement, {len(taus)} mode(s) "
+                     f"({', '.join(f'{t:.3g} s' for t in taus)}), {100 * sum(shares):.3g} % of a settled "
+                     f"displacement reached by creeping")
+            hint = (f"direction-signed residual vs ln(time since change): correlation "
+                    f"{stats['creep_log_correlation']:+.2f}")
         elif cause == "creep":
             taus, weights = p["time_constants_s"], p.get("weights_um_per_V", [])
             used = [f"{t:.3g} s" for t, w in zip(taus, weights) if w != 0]
-            shape = (f"{len(used)} non-negative creep mode(s) of {len(taus)} ({', '.join(used) or 'none'}), "
-                     f"Σw = {sum(weights):.4g} µm/V")
+            shape = (f"{len(used)} non-negative creep mode(s) of the input, of {len(taus)} "
+                     f"({', '.join(used) or 'none'}), Σw = {sum(weights):.4g} µm/V")
             hint = (f"direction-signed residual vs ln(time since change): correlation "
                     f"{stats['creep_log_correlation']:+.2f}")
         elif cause == "drift":
@@ -735,6 +751,21 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 options = [run(fitter.drift(base_family, degree)) for degree in (1, 2)]
                 # the quadratic must extrapolate clearly better than the line
                 ev = options[1] if options[1].mse_um2 < 0.8 * options[0].mse_um2 else options[0]
+            elif cause == "creep":
+                # creep driven by the input or by the displacement: the better one out of sample
+                options = [run(fitter.creep(base_family))]
+                try:
+                    options.append(run(fitter.displacement_creep(base_family)))
+                except (IdentificationError, DiagnosisError):
+                    pass
+                if validate is not None and len(options) > 1:
+                    # two structures of one cause: the second record is held-out data too
+                    train_range = (float(v.min()), float(v.max()))
+                    second = [score_on_record(o.fit, v2, y2, T, train_range, train_voltage_V=v)["mse_um2"]
+                              for o in options]
+                    ev = options[int(np.argmin([o.mse_um2 * m for o, m in zip(options, second)]))]
+                else:
+                    ev = min(options, key=lambda option: option.mse_um2)
             else:
                 ev = run(fitter.family(cause, base_family))
         except (IdentificationError, DiagnosisError):
@@ -764,7 +795,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
 
     validation = None
     if validate is not None:
-        validation, v_verdict = _validate(fitter, baseline, richer, candidates, v, v2, y2, complexity)
+        validation, v_verdict = _validate(fitter, baseline, richer, candidates, v, v2, y2, complexity,
+                                          cv_verdict, noise)
         if unidentified:
             # the first record cannot identify the hysteresis: the second record would measure that,
             # not an effect, so it does not name the cause
@@ -811,36 +843,89 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                      excitation_plan=plan, start_excluded_samples=start)
 
 
-def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity):
-    """Score every model on the second record; the verdict by that record."""
+def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_verdict, noise1):
+    """Score every model on the second record; the verdict by that record.
+
+    A second record on which the better rate-independent model already
+    reaches its noise floor (less than ``2 NOISE_FRACTION`` σ² above it) has
+    nothing an effect could explain: no candidate can be significant there, so
+    it cannot confirm the first record's verdict, only contradict it.  The
+    cross-validated verdict then stands unless its cause raises the second
+    record's error by ``NOISE_FRACTION`` σ² or more.  Conversely, when the
+    *first* record is that close to its noise floor, every candidate's effect
+    was fitted to noise, and what one gains on the second record corrects the
+    hysteresis part by accident: the cross-validated verdict stands.
+    """
     train_range = (float(v1.min()), float(v1.max()))
     for ev in [baseline, richer, *candidates.values()]:
-        ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range)
+        ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1)
     noise2 = min(ev.validation["noise_um"] for ev in [baseline, richer, *candidates.values()])
     mse = {c: ev.validation["mse_um2"] for c, ev in candidates.items()}
     ref_val = min(baseline.validation["mse_um2"], richer.validation["mse_um2"])
+    ref_cv = min(baseline.mse_um2, richer.mse_um2)
     verdict = decide(mse, baseline.validation["mse_um2"], richer.validation["mse_um2"], noise2, complexity)
     if verdict["cause"] in EFFECTS:
         # the second record names the cause; among the candidates significant on both records the
         # one that lowers the error most on both together wins (a second record whose input the
         # first never showed also tests the hysteresis part, which an effect may partly stand in for)
-        ref_cv = min(baseline.mse_um2, richer.mse_um2)
         both = [c for c, ev in candidates.items() if verdict["significant"][c] and ev.significant]
         if both:
             score = {c: (candidates[c].mse_um2 / ref_cv) * (mse[c] / ref_val) for c in both}
             best = min(both, key=score.get)
             ties = sorted((c for c in both if score[c] <= (1.0 + 2.0 * TIE_FRACTION) * score[best]), key=score.get)
             verdict = dict(verdict, cause=best, causes=tuple(ties), best=best)
+    standing, by = "", "second record"
+    if ref_cv - noise1**2 < 2.0 * NOISE_FRACTION * noise1**2 and verdict["cause"] != cv_verdict["cause"]:
+        # the first record shows nothing beyond its noise: every candidate's effect parameters were
+        # fitted to noise there, so what one gains on the second record is a correction of the
+        # hysteresis part by accident, not evidence of that effect
+        standing = (f"; the first record leaves only {(ref_cv - noise1**2) / noise1**2:.2g} σ² above its noise "
+                    "(the candidates' effects were fitted to noise there), so the second record's "
+                    f"{verdict['cause']} is not evidence of an effect: diagnose the second record on its own")
+        return _validation_result(baseline, richer, candidates, noise2, cv_verdict, standing, False,
+                                  "cross-validation")
+    best = verdict.get("best")
+    if (verdict["cause"] == "unexplained" and best is not None and best == cv_verdict["cause"]
+            and verdict["significant"].get(best) and candidates[best].significant):
+        # the same candidate is significant on both records and explains most of the first record's
+        # residual: it is the cause, and what it leaves on the second record is said, not hidden
+        standing = (f"; {best} is significant on both records and explains most of the first record's "
+                    f"residual but only {100 * verdict['explained_share']:.0f} % of the second record's: it is "
+                    "named, and the rest of the second record's residual is outside what it describes")
+        verdict = dict(verdict, cause=best, causes=(best,))
+    quiet = ref_val - noise2**2 < 2.0 * NOISE_FRACTION * noise2**2
+    if quiet and verdict["cause"] == "none" and cv_verdict["cause"] != "none":
+        contradicted = [c for c in cv_verdict["causes"]
+                        if c in mse and mse[c] - ref_val >= NOISE_FRACTION * noise2**2]
+        if contradicted:
+            standing = (f"; the first record's verdict ({', '.join(cv_verdict['causes'])}) is not kept: "
+                        f"{', '.join(contradicted)} raises the second record's error by "
+                        f"{NOISE_FRACTION} σ² or more")
+        else:
+            verdict, by = cv_verdict, "cross-validation"
+            standing = (f"; the second record leaves only {(ref_val - noise2**2) / noise2**2:.2g} σ² above its "
+                        f"noise for any effect to explain (it cannot confirm one) and "
+                        f"{', '.join(cv_verdict['causes'])} "
+                        f"{'does' if len(cv_verdict['causes']) == 1 else 'do'} not raise its error: the cross-validated "
+                        "verdict stands")
+    return _validation_result(baseline, richer, candidates, noise2, verdict, standing, not quiet, by)
+
+
+def _validation_result(baseline, richer, candidates, noise2, verdict, remark, confirms, by):
     table = {ev.cause: {k: ev.validation[k] for k in ("rms_pct", "max_pct", "offset_um", "gain",
                                                        "timing_samples", "scored_samples")}
              for ev in [baseline, richer, *candidates.values()]}
     return {"noise_um": noise2, "cause": verdict["cause"], "causes": list(verdict["causes"]), "table": table,
             "note": "every model fitted on the first record; on the second its initial operator state, the "
                     "sensor offset and gain are re-fitted; scored where the input "
-                    "stays inside the first record's range"}, verdict
+                    "stays inside the first record's range" + remark,
+            "confirms": confirms, "verdict_by": by, "remark": remark}, verdict
 
 
 def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -> str:
+    if validation is not None and validation.get("verdict_by") != "second record":
+        # the second record could not decide: the cross-validated verdict, and why it stands
+        return _why(verdict, cv_verdict, baseline, richer, candidates, noise, None) + validation["remark"]
     by = "on the second record" if validation is not None else "out of sample (blocked cross-validation)"
     ref = "richer" if richer.mse_um2 < baseline.mse_um2 else "baseline"
     cause = verdict["cause"]
@@ -861,7 +946,7 @@ def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -
         others = [c for c in verdict["causes"] if c != cause]
         if others:
             text += f"; {', '.join(others)} explain it as well"
-        return text
+        return text + ("" if validation is None else validation.get("remark", ""))
     if cause == "unexplained":
         return f"unexplained {by}: {verdict['text']}"
     best = min(candidates.values(), key=lambda ev: ev.mse_um2) if candidates else None

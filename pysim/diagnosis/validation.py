@@ -51,8 +51,23 @@ def _shifted(p, shift: int):
 
 
 def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period_s: float,
-                    train_range_V) -> dict:
+                    train_range_V, *, train_voltage_V=None) -> dict:
     """Score a fitted model on another record (see the module notes).
+
+    Parameters
+    ----------
+    fit : CandidateFit
+    voltage_V, displacement_um : array_like
+        The other record.
+    sample_period_s : float
+    train_range_V : (float, float)
+        Input range of the record the model was fitted on: only samples
+        inside it are scored.
+    train_voltage_V : array_like, optional
+        That record's input itself.  For a model with an input stage the range
+        that counts is the one its hysteresis saw -- the stage's output (a
+        low-pass narrows a fast input's range, and a step on the other record
+        can take it beyond) -- so it is computed from this record when given.
 
     Returns
     -------
@@ -105,7 +120,11 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
                 state[i] = new
     p = predict(state)
     lo, hi = train_range_V
-    scored = np.flatnonzero((v >= lo) & (v <= hi))
+    level = v
+    if isinstance(model, InputStageModel) and train_voltage_V is not None:
+        seen = model.stage_input(np.asarray(train_voltage_V, dtype=float))
+        lo, hi, level = float(seen.min()), float(seen.max()), x
+    scored = np.flatnonzero((level >= lo) & (level <= hi))
     scored = scored[(scored > 0) & (scored < v.size - 1)]
     if scored.size < 10:
         scored = np.arange(1, v.size - 1)

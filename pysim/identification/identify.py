@@ -660,7 +660,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     # others (few distinct input levels, as in steps) are tied to their lower
     # neighbour as well, the widest first, until the columns are independent.
     spacing = np.diff(np.concatenate(([0.0], r)))
-    for _ in range(r.size):
+    for _ in range(r.size + 1):
         probe_matrix = design(state0, low_w, high_w, u_w)
         norms = np.linalg.norm(probe_matrix, axis=0)
         norms[norms == 0] = 1.0
@@ -669,6 +669,12 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         diagonal = np.abs(np.diag(R_probe))
         rank = int(np.count_nonzero(diagonal > RANK_TOLERANCE * diagonal[0]))
         dependent_ops = [i for i in own if column_of[i] in set(pivots[rank:].tolist())]
+        if rank < n_hyst and not dependent_ops and cubic:
+            # u³ is a combination of u and the offset: the samples take two input levels (steps
+            # between two voltages), which show no loop curvature; the model is fitted without it
+            cubic, n_lin = False, 1
+            own, not_identifiable, column_of, n_hyst, names = layout()
+            continue
         if rank == n_hyst or not dependent_ops:
             break
         i = max(dependent_ops, key=lambda j: r[j])
@@ -680,6 +686,12 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
                 anchor[k], factor[k] = anchor[i], factor[k] * factor[i]
         own, not_identifiable, column_of, n_hyst, names = layout()
 
+    if unexcited_message is None and np.any(r > 0) and not any(r[i] > 0 for i in own):
+        unexcited_message = (f"the fitted samples take only {np.unique(u_w).size} distinct input levels: no "
+                             "operator can be told apart from a straight line; record a rise and a fall through "
+                             "many levels")
+        if require_excitation:
+            raise IdentificationError(unexcited_message)
     effective_columns = [column_of.get(int(anchor[i]), -1) if anchor[i] >= 0 else -1 for i in range(r.size)]
     n_params = n_hyst + len(extras)
     template = HysteresisModel(0.0, 1.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
