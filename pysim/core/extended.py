@@ -298,6 +298,16 @@ class ExtendedState:
     samples: int = 0
 
 
+def _mode_problems(label: str, time_constants_s: tuple, values: tuple, values_label: str) -> list:
+    """What is wrong with a set of modes: one value per time constant, each τ finite and > 0."""
+    problems = []
+    if len(time_constants_s) != len(values):
+        problems.append(f"{len(time_constants_s)} {label} time constants but {len(values)} {values_label}")
+    if not all(math.isfinite(x) and x > 0 for x in time_constants_s):
+        problems.append(f"{label} time constants must be finite and > 0 s")
+    return problems
+
+
 @dataclass(frozen=True)
 class StageSpec:
     """The output stages of an :class:`ExtendedModel` (see the module notes).
@@ -359,18 +369,12 @@ class StageSpec:
         taus = tuple(float(x) for x in self.creep_time_constants_s)
         weights = tuple(float(x) for x in self.creep_weights_um_per_V)
         drift = tuple(float(x) for x in self.drift_coefficients)
-        if len(taus) != len(weights):
-            problems.append(f"{len(taus)} creep time constants but {len(weights)} creep weights")
-        if not all(math.isfinite(x) and x > 0 for x in taus):
-            problems.append("creep time constants must be finite and > 0 s")
+        problems += _mode_problems("creep", taus, weights, "creep weights")
         if not all(math.isfinite(x) for x in weights + drift):
             problems.append("creep weights and drift coefficients must be finite")
         d_taus = tuple(float(x) for x in self.displacement_creep_time_constants_s)
         shares = tuple(float(x) for x in self.displacement_creep_shares)
-        if len(d_taus) != len(shares):
-            problems.append(f"{len(d_taus)} displacement creep time constants but {len(shares)} shares")
-        if not all(math.isfinite(x) and x > 0 for x in d_taus):
-            problems.append("displacement creep time constants must be finite and > 0 s")
+        problems += _mode_problems("displacement creep", d_taus, shares, "shares")
         if not (all(math.isfinite(x) and x >= 0 for x in shares) and sum(shares) < 1.0):
             problems.append(f"displacement creep shares must be >= 0 and sum to less than 1, got {shares}")
         if not problems:

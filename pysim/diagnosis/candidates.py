@@ -167,6 +167,18 @@ def _lsq_sse(A, y) -> float:
     return float(residual @ residual)
 
 
+def mode_lags(signal, time_constants_s, sample_period_s: float) -> np.ndarray:
+    """``(N, m)`` columns ``C_j[x] − x``: how far each creep mode (a unit-gain
+    first-order lag, at rest at the first sample) trails the signal ``x``."""
+    x = np.asarray(signal, dtype=float)
+    columns = np.empty((x.size, len(time_constants_s)))
+    for j, tau in enumerate(time_constants_s):
+        alpha, beta = tustin_creep_mode(tau, sample_period_s)
+        mode = OutputStages(creep_alpha=[alpha], creep_beta=[beta], creep_weights=[1.0])
+        columns[:, j] = mode.run(np.zeros_like(x), x)[0] - x
+    return columns
+
+
 class CandidateFitter:
     """Builds and fits every family on one record.
 
@@ -306,14 +318,9 @@ class CandidateFitter:
 
     def creep(self, base: Family) -> Family:
         taus = self.creep_time_constants_s()
-        u = self.v - base.input_offset_V
-        columns = {}
-        for j, tau in enumerate(taus):
-            alpha, beta = tustin_creep_mode(tau, self.T)
-            mode = OutputStages(creep_alpha=[alpha], creep_beta=[beta], creep_weights=[1.0])
-            column, _ = mode.run(np.zeros_like(u), u)
-            # the mode's lag behind the input: zero at rest, so the hysteresis keeps the static gain
-            columns[f"creep_{j}"] = self.gain_sign * (column - u)
+        # the modes' lag behind the input: zero at rest, so the hysteresis keeps the static gain
+        lags = mode_lags(self.v - base.input_offset_V, taus, self.T)
+        columns = {f"creep_{j}": self.gain_sign * lags[:, j] for j in range(taus.size)}
         return self._with(base, "creep", parameters={"driven_by": "input", "time_constants_s": taus.tolist()},
                           extras=columns, nonnegative=tuple(columns), extra_sign=self.gain_sign)
 
@@ -333,11 +340,6 @@ class CandidateFitter:
         taus = self.creep_time_constants_s()
         A = self._design(base)
         rows, y = self.search_rows, self.y[self.search_rows]
-        modes = [tustin_creep_mode(tau, self.T) for tau in taus]
-
-        def lags(x):
-            return np.column_stack([OutputStages(creep_alpha=[a], creep_beta=[b], creep_weights=[1.0]).run(
-                np.zeros_like(x), x)[0] - x for a, b in modes])
 
         def refit(shares):
             filtered = OutputStages(tustin_displacement_creep(taus, shares, self.T)).apply_to_columns(A)
@@ -349,7 +351,7 @@ class CandidateFitter:
             total = shares.sum()
             return shares * (MAX_CREEP_SHARE / total) if total > MAX_CREEP_SHARE else shares
 
-        stacked = np.column_stack([A, lags(self.y)])[rows]
+        stacked = np.column_stack([A, mode_lags(self.y, taus, self.T)])[rows]
         scale = np.linalg.norm(stacked, axis=0)
         scale[scale == 0] = 1.0
         lower = np.r_[np.full(A.shape[1], -np.inf), np.zeros(taus.size)]
@@ -359,7 +361,7 @@ class CandidateFitter:
         best = (sse, shares)
         for _ in range(rounds):
             h = A @ theta
-            shares, _ = scipy.optimize.nnls(lags(h)[rows], y - h[rows])
+            shares, _ = scipy.optimize.nnls(mode_lags(h, taus, self.T)[rows], y - h[rows])
             shares = admissible(shares)
             theta, sse = refit(shares)
             if sse >= best[0]:

@@ -761,9 +761,10 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 if validate is not None and len(options) > 1:
                     # two structures of one cause: the second record is held-out data too
                     train_range = (float(v.min()), float(v.max()))
-                    second = [score_on_record(o.fit, v2, y2, T, train_range, train_voltage_V=v)["mse_um2"]
-                              for o in options]
-                    ev = options[int(np.argmin([o.mse_um2 * m for o, m in zip(options, second)]))]
+                    for option in options:      # kept: the second record's table scores them once
+                        option.validation = score_on_record(option.fit, v2, y2, T, train_range,
+                                                            train_voltage_V=v)
+                    ev = options[int(np.argmin([o.mse_um2 * o.validation["mse_um2"] for o in options]))]
                 else:
                     ev = min(options, key=lambda option: option.mse_um2)
             else:
@@ -858,7 +859,8 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
     """
     train_range = (float(v1.min()), float(v1.max()))
     for ev in [baseline, richer, *candidates.values()]:
-        ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1)
+        if ev.validation is None:
+            ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1)
     noise2 = min(ev.validation["noise_um"] for ev in [baseline, richer, *candidates.values()])
     mse = {c: ev.validation["mse_um2"] for c, ev in candidates.items()}
     ref_val = min(baseline.validation["mse_um2"], richer.validation["mse_um2"])
@@ -946,7 +948,7 @@ def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -
         others = [c for c in verdict["causes"] if c != cause]
         if others:
             text += f"; {', '.join(others)} explain it as well"
-        return text + ("" if validation is None else validation.get("remark", ""))
+        return text + ("" if validation is None else validation["remark"])
     if cause == "unexplained":
         return f"unexplained {by}: {verdict['text']}"
     best = min(candidates.values(), key=lambda ev: ev.mse_um2) if candidates else None
