@@ -235,6 +235,25 @@ def test_input_stages_are_recognised(plant, cause):
     np.testing.assert_allclose(fit.model.simulate(d.voltage_V, fit.state), fit.prediction_um, atol=1e-9)
 
 
+def test_an_input_lowpass_on_a_fast_record_predicts_a_slow_one_to_its_noise(plant):
+    # a fast first record: a 50 ms low-pass leaves the operators part of the
+    # range, and the plain fit's operator state absorbs part of the lag; the
+    # second record, slow steps, takes the operators further
+    tau = 0.05
+    v1 = multisine(plant, 12000, 11)
+    x1 = input_lowpass(v1, tau, T)
+    assert np.ptp(x1) < 0.85 * np.ptp(v1)
+    v2 = steps(plant, 8000, 12)
+    y1, y2 = noisy(plant.simulate(x1), 13), noisy(plant.simulate(input_lowpass(v2, tau, T)), 14)
+    d = diagnose(v1, y1, FS, validate=(v2, y2, FS))
+    assert d.cause == "rate_dependent_hysteresis", d.why
+    candidate = d.candidates["rate_dependent_hysteresis"]
+    assert candidate.fit.parameters["input_time_constant_s"] == pytest.approx(tau, rel=0.05)
+    # both records are predicted to their noise (σ: 0.2 % of each record's range)
+    assert candidate.mse_um2 < 1.5 * (0.002 * np.ptp(y1)) ** 2
+    assert candidate.validation["mse_um2"] < 2.0 * (0.002 * np.ptp(y2)) ** 2
+
+
 def test_slew_limit_is_an_exact_rate_bound():
     v = np.r_[np.zeros(5), np.full(20, 10.0), np.zeros(20)]
     x = slew_limit(v, 2000.0, 1e-3)               # 2 V per sample

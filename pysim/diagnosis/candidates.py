@@ -48,13 +48,18 @@ Every family is physically admissible by construction:
 ``slew_limit``
     ``y = H[S[v]]``: the amplifier follows the command at most at a rate R.
 
+For these two the operator state at the start is estimated anew through the
+stage once its parameter is found: the baseline's state was estimated without
+the stage and absorbs part of its effect (a fast record's lag looks like a
+history), which the weights would then have to undo.
+
 The models of the last two are :class:`pysim.diagnosis.input_stages.InputStageModel`;
 the others are :class:`pysim.core.extended.ExtendedModel`.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.optimize
@@ -71,7 +76,13 @@ from pysim.core.extended import (
 )
 from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.input_stages import InputStageModel, apply_input_stage
-from pysim.identification.identify import IdentificationError, IdentificationResult, identify, regressors
+from pysim.identification.identify import (
+    IdentificationError,
+    IdentificationResult,
+    identify,
+    operator_bounds,
+    regressors,
+)
 
 EFFECTS = ("rate_dependence", "creep", "delay", "drift", "rate_dependent_hysteresis", "slew_limit")
 #: Most rows the shape searches use (the last ones of the record).
@@ -386,11 +397,30 @@ class CandidateFitter:
         columns = {f"t{j}": (time / scale) ** j for j in range(1, degree + 1)}
         return self._with(base, "drift", parameters={"degree": degree, "time_scale_s": scale}, extras=columns)
 
+    def stage_states(self, base: Family, stage_output_V) -> list:
+        """Operator states to try for operators that see an input stage's output
+        instead of the voltage: the base's and the demagnetised one, clipped to
+        what the stage output's first sample admits.  The base's state was
+        estimated without the stage and may have absorbed part of its effect.
+
+        The thresholds stay the base's, over the voltage's range: a low-pass
+        narrows the range the operators travel in a fast record, and the top
+        operators, tied to their neighbours' density, then extrapolate to a
+        record that travels further, as in the plain fit.
+        """
+        x = np.asarray(stage_output_V, dtype=float)
+        low, high = operator_bounds(x[:1], base.thresholds_V, self.operator, base.input_offset_V)
+        return [np.clip(base.initial_state, low[0], high[0]),
+                np.clip(np.zeros(len(base.thresholds_V)), low[0], high[0])]
+
     def _input_sse(self, base: Family, kind: str, parameter: float) -> float:
         x = apply_input_stage(kind, parameter, self.v, self.T)
-        A, _ = regressors(x, base.thresholds_V, self.operator, base.input_offset_V, self.cubic,
-                          initial_state=base.initial_state)
-        return _lsq_sse(A[self.search_rows], self.y[self.search_rows])
+        scores = []
+        for state in self.stage_states(base, x):
+            A, _ = regressors(x, base.thresholds_V, self.operator, base.input_offset_V, self.cubic,
+                              initial_state=state)
+            scores.append(_lsq_sse(A[self.search_rows], self.y[self.search_rows]))
+        return min(scores)
 
     def _input_search(self, base: Family, kind: str, grid: np.ndarray) -> float:
         scores = [self._input_sse(base, kind, math.exp(x)) for x in grid]
@@ -401,12 +431,25 @@ class CandidateFitter:
                                                  options={"xatol": 5e-3, "maxiter": 12})
         return math.exp(refined.x if refined.fun < scores[i] else grid[i])
 
+    def _with_input_stage(self, base: Family, cause: str, kind: str, parameter: float, **changes) -> Family:
+        """The family of an input stage with its parameter, with the operator
+        state estimated anew through the stage."""
+        x = apply_input_stage(kind, parameter, self.v, self.T)
+        try:
+            state = identify(x, self.y, n_operators=base.n_operators, model=self.kind, operator=self.operator,
+                             thresholds_V=base.thresholds_V, input_offset_V=base.input_offset_V,
+                             require_excitation=False).initial_state
+        except IdentificationError:
+            state = self.stage_states(base, x)[0]
+        return replace(self._with(base, cause, input_stage=(kind, parameter), **changes),
+                       initial_state=np.asarray(state, dtype=float))
+
     def rate_dependent_hysteresis(self, base: Family) -> Family:
         rows = self.search_rows.stop - self.search_rows.start
         grid = np.linspace(math.log(0.3 * self.T), math.log(max(3.0, rows / 20.0) * self.T), 12)
         tau = self._input_search(base, "lowpass", grid)
-        return self._with(base, "rate_dependent_hysteresis",
-                          parameters={"input_time_constant_s": tau}, input_stage=("lowpass", tau))
+        return self._with_input_stage(base, "rate_dependent_hysteresis", "lowpass", tau,
+                                      parameters={"input_time_constant_s": tau})
 
     def slew_limit(self, base: Family) -> Family:
         fastest = float(np.max(np.abs(np.diff(self.v)))) / self.T
@@ -414,8 +457,8 @@ class CandidateFitter:
             raise DiagnosisError("the input never changes: no slew limit can be fitted")
         grid = np.linspace(math.log(fastest / 40.0), math.log(fastest), 12)
         rate = self._input_search(base, "slew_limit", grid)
-        return self._with(base, "slew_limit", parameters={"rate_V_per_s": rate, "rate_V_per_ms": rate / 1e3},
-                          input_stage=("slew_limit", rate))
+        return self._with_input_stage(base, "slew_limit", "slew_limit", rate,
+                                      parameters={"rate_V_per_s": rate, "rate_V_per_ms": rate / 1e3})
 
     def family(self, cause: str, base: Family) -> Family:
         """Search the shape parameters of ``cause`` on top of ``base``."""
