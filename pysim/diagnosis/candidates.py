@@ -20,7 +20,9 @@ Every family is physically admissible by construction:
 ``rate_dependence``
     ``y = G[h]``: a first-order lag ``1/(τ s + 1)`` or a second-order stage
     ``ω²/(s² + 2ζω s + ω²)`` after the hysteresis (stable, unit static gain),
-    chosen by BIC.
+    chosen by BIC.  The damping keeps the free ringing (decay time
+    ``1/(ζω)``) within ``MAX_RINGING_SHARE`` of the record: a resonance that
+    rings on longer cannot be told from a disturbance at its frequency.
 ``delay``
     ``y = D[h]``, a delay of ``d >= 0`` samples (fractions interpolate).
 ``creep``
@@ -48,10 +50,11 @@ Every family is physically admissible by construction:
 ``slew_limit``
     ``y = H[S[v]]``: the amplifier follows the command at most at a rate R.
 
-For these two the operator state at the start is estimated anew through the
-stage once its parameter is found: the baseline's state was estimated without
-the stage and absorbs part of its effect (a fast record's lag looks like a
-history), which the weights would then have to undo.
+For every family the operator state at the start is estimated anew with its
+own structure once its shape parameters are found
+(:meth:`CandidateFitter.with_estimated_state`): the baseline's state was
+estimated without the effect and may absorb part of it (a fast record's lag
+looks like a history), which the weights would then have to undo.
 
 The models of the last two are :class:`pysim.diagnosis.input_stages.InputStageModel`;
 the others are :class:`pysim.core.extended.ExtendedModel`.
@@ -87,6 +90,8 @@ from pysim.identification.identify import (
 EFFECTS = ("rate_dependence", "creep", "delay", "drift", "rate_dependent_hysteresis", "slew_limit")
 #: Most rows the shape searches use (the last ones of the record).
 SEARCH_SAMPLES = 40000
+#: A second-order stage's free ringing (decay time 1/(ζω)) lasts at most this share of the record.
+MAX_RINGING_SHARE = 0.05
 #: Largest share of a settled displacement that displacement creep may reach by creeping: creep
 #: follows the jump of a step, it is not most of it (a response that mostly arrives late is a lag).
 MAX_CREEP_SHARE = 0.5
@@ -271,9 +276,14 @@ class CandidateFitter:
         log_z = np.log([0.05, 0.15, 0.35, 0.7, 1.2])
         z_range = (math.log(0.005), math.log(5.0))
 
+        duration_s = self.v.size * T
+
         def clip(x):
-            return (math.exp(min(max(x[0], log_f[0] - 1.0), log_f[-1])),
-                    math.exp(min(max(x[1], z_range[0]), z_range[1])))
+            # a resonance whose free ringing (decay time 1/(ζω)) outlasts MAX_RINGING_SHARE of the
+            # record cannot be told from a disturbance at its frequency: the damping is kept above that
+            f = math.exp(min(max(x[0], log_f[0] - 1.0), log_f[-1]))
+            z_min = max(math.exp(z_range[0]), 1.0 / (2.0 * math.pi * f * MAX_RINGING_SHARE * duration_s))
+            return f, min(max(math.exp(x[1]), z_min), math.exp(z_range[1]))
 
         def second(x):
             return self._stage_sse(base, OutputStages([tustin_second_order(*clip(x), T)]))
@@ -432,17 +442,7 @@ class CandidateFitter:
         return math.exp(refined.x if refined.fun < scores[i] else grid[i])
 
     def _with_input_stage(self, base: Family, cause: str, kind: str, parameter: float, **changes) -> Family:
-        """The family of an input stage with its parameter, with the operator
-        state estimated anew through the stage."""
-        x = apply_input_stage(kind, parameter, self.v, self.T)
-        try:
-            state = identify(x, self.y, n_operators=base.n_operators, model=self.kind, operator=self.operator,
-                             thresholds_V=base.thresholds_V, input_offset_V=base.input_offset_V,
-                             require_excitation=False).initial_state
-        except IdentificationError:
-            state = self.stage_states(base, x)[0]
-        return replace(self._with(base, cause, input_stage=(kind, parameter), **changes),
-                       initial_state=np.asarray(state, dtype=float))
+        return self._with(base, cause, input_stage=(kind, parameter), **changes)
 
     def rate_dependent_hysteresis(self, base: Family) -> Family:
         rows = self.search_rows.stop - self.search_rows.start
@@ -481,6 +481,30 @@ class CandidateFitter:
         if family.input_stage is None:
             return self.v
         return apply_input_stage(family.input_stage[0], family.input_stage[1], self.v, self.T)
+
+    def with_estimated_state(self, family: Family) -> Family:
+        """``family`` with the operator state at the start estimated with its
+        own structure (through its stages, on every sample).
+
+        The base's state was estimated without the effect, and a state can
+        absorb part of an effect (a fast record's lag looks like a history),
+        which the weights would otherwise have to undo.  The estimate replaces
+        the base's only where it fits the whole record better.
+        """
+        settings = dict(n_operators=family.n_operators, model=self.kind, operator=self.operator,
+                        thresholds_V=family.thresholds_V, input_offset_V=family.input_offset_V,
+                        column_transform=None if family.transform is None else family.transform.apply_to_columns,
+                        extra_regressors=family.extras or None, extra_nonnegative=family.nonnegative,
+                        require_excitation=False)
+        x = self.operator_input(family)
+        try:
+            kept = identify(x, self.y, initial_state=family.initial_state, **settings)
+            estimated = identify(x, self.y, **settings)
+        except IdentificationError:
+            return family
+        if not estimated.objective < kept.objective:
+            return family
+        return replace(family, initial_state=np.asarray(estimated.initial_state, dtype=float))
 
     def fit(self, family: Family, rows=None) -> IdentificationResult:
         """The linear parameters of ``family`` fitted on ``rows`` (default: all)."""

@@ -82,6 +82,9 @@ TIE_FRACTION = 0.1
 UNEXPLAINED_SHARE = 0.5
 #: ... and that residual is at least this many noise variances.
 UNEXPLAINED_LEVEL = 3.0
+#: A second record decides even after a first record at its noise floor when its residual is at
+#: least UNEXPLAINED_LEVEL noise variances and one cause removes at least this share of it.
+DECISIVE_SHARE = 0.75
 N_FOLDS = 5
 #: Samples at the start left out of fitting and scoring the extensions: their output
 #: stages start at rest, the actuator may not have been (the larger of the two).
@@ -730,6 +733,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     character = character_split(v, T)
 
     def run(family):
+        if family.cause not in ("baseline", "richer"):
+            family = fitter.with_estimated_state(family)
         fit = fitter.finish(family, fitter.fit(family))
         return _evaluate(fitter, family, fit, folds, character, y, mask)
 
@@ -855,7 +860,11 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
     record's error by ``NOISE_FRACTION`` σ² or more.  Conversely, when the
     *first* record is that close to its noise floor, every candidate's effect
     was fitted to noise, and what one gains on the second record corrects the
-    hysteresis part by accident: the cross-validated verdict stands.
+    hysteresis part by accident: the cross-validated verdict stands -- unless
+    the second record is decisive: a residual of ``UNEXPLAINED_LEVEL`` σ² or
+    more of which the named cause removes ``DECISIVE_SHARE`` or more, without
+    raising the first record's error (an effect that a slow first record could
+    not show, such as a slew limit, and a fast second one shows plainly).
     """
     train_range = (float(v1.min()), float(v1.max()))
     for ev in [baseline, richer, *candidates.values()]:
@@ -877,7 +886,15 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
             ties = sorted((c for c in both if score[c] <= (1.0 + 2.0 * TIE_FRACTION) * score[best]), key=score.get)
             verdict = dict(verdict, cause=best, causes=tuple(ties), best=best)
     standing, by = "", "second record"
-    if ref_cv - noise1**2 < 2.0 * NOISE_FRACTION * noise1**2 and verdict["cause"] != cv_verdict["cause"]:
+    excess2 = ref_val - noise2**2
+    decisive = (verdict["cause"] in EFFECTS and excess2 >= UNEXPLAINED_LEVEL * noise2**2
+                and ref_val - mse[verdict["cause"]] >= DECISIVE_SHARE * excess2
+                and candidates[verdict["cause"]].mse_um2 <= ref_cv + NOISE_FRACTION * noise1**2)
+    if decisive and not candidates[verdict["cause"]].significant:
+        standing = (f"; the first record shows nothing beyond its noise, but on the second record "
+                    f"{verdict['cause']} removes {100 * (ref_val - mse[verdict['cause']]) / excess2:.0f} % of a "
+                    f"residual of {excess2 / noise2**2:.3g} σ² above the noise")
+    elif ref_cv - noise1**2 < 2.0 * NOISE_FRACTION * noise1**2 and verdict["cause"] != cv_verdict["cause"]:
         # the first record shows nothing beyond its noise: every candidate's effect parameters were
         # fitted to noise there, so what one gains on the second record is a correction of the
         # hysteresis part by accident, not evidence of that effect
@@ -919,7 +936,7 @@ def _validation_result(baseline, richer, candidates, noise2, verdict, remark, co
              for ev in [baseline, richer, *candidates.values()]}
     return {"noise_um": noise2, "cause": verdict["cause"], "causes": list(verdict["causes"]), "table": table,
             "note": "every model fitted on the first record; on the second its initial operator state, the "
-                    "sensor offset and gain are re-fitted; scored where the input "
+                    "state of its slow stage modes, the sensor offset and gain are re-fitted; scored where the input "
                     "stays inside the first record's range" + remark,
             "confirms": confirms, "verdict_by": by, "remark": remark}, verdict
 
@@ -935,8 +952,9 @@ def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -
         ev = candidates[cause]
         if validation is not None:
             row = validation["table"][cause]
-            text = (f"{cause} lowers the error on the second record significantly and, of the candidates that do "
-                    f"so on both records, the most on both together: second record RMS "
+            text = (f"{cause} lowers the error on the second record significantly"
+                    + (" and, of the candidates that do so on both records, the most on both together"
+                       if ev.significant else "") + ": second record RMS "
                     f"{validation['table']['baseline']['rms_pct']:.3g} % → {row['rms_pct']:.3g} % of range (richer "
                     f"rate-independent model {validation['table']['richer']['rms_pct']:.3g} %), cross-validated "
                     f"{baseline.rms_pct:.3g} % → {ev.rms_pct:.3g} %")

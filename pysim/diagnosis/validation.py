@@ -8,7 +8,13 @@ exactly these, and nothing else, before it scores:
 - the operator state before the second record's first sample (exact steps for
   each operator with the model's weights fixed; see
   :func:`pysim.identification.identify.best_clamped_state`);
-- the sensor offset and gain (``y ≈ gain · model + offset``, least squares).
+- the sensor offset and gain (``y ≈ gain · model + offset``, least squares);
+- the state of the output stages' slow modes (creep modes and a lag slower
+  than ``MIN_HISTORY_MODE_SAMPLES``): a history before the second record leaves
+  each mode away from rest, and what it adds is that mode's free response,
+  ``a_j exp(−t/τ_j)``, fitted with the offset.  A creep that outlasts the
+  first record shows on a second one as such a decaying transient; the models
+  without those modes (the plain fit) have no such state to fit.
 
 The timing is not re-fitted (``TIMING_SHIFTS_SAMPLES``): a shift chosen per
 model can cancel the lag that a rate-dependent candidate adds, and on an
@@ -32,13 +38,42 @@ from pysim.identification.identify import best_clamped_state, operator_bounds
 STATE_ROUNDS = 4
 #: Timing shifts of the second record tried, samples (see the module notes: none).
 TIMING_SHIFTS_SAMPLES = (0,)
+#: Stage modes at least this slow (samples) get their history's free response fitted.
+MIN_HISTORY_MODE_SAMPLES = 20.0
 
 
-def _affine(p, y):
-    """Gain and offset of the least-squares fit ``y ≈ g p + c``."""
-    A = np.column_stack([p, np.ones_like(p)])
-    (g, c), *_ = np.linalg.lstsq(A, y, rcond=None)
-    return float(g), float(c)
+def history_modes(model, n_samples: int, sample_period_s: float) -> np.ndarray:
+    """``(n_samples, m)`` free responses ``exp(−t/τ_j)`` of the model's slow
+    output-stage modes (creep modes of either kind, a first-order lag), t from
+    the first sample: what a history before the record adds while those modes
+    settle.  No columns for a model without such modes.
+
+    Examples
+    --------
+    >>> from pysim.core.extended import ExtendedModel, StageSpec
+    >>> from pysim.core.model import HysteresisModel
+    >>> h = HysteresisModel(0.0, 0.5, (0.0,), (0.0,), voltage_range_V=(0.0, 100.0))
+    >>> spec = StageSpec(sample_period_s=1e-3, creep_time_constants_s=(0.002, 0.5),
+    ...                  creep_weights_um_per_V=(0.01, 0.02))
+    >>> history_modes(ExtendedModel(h, spec), 3, 1e-3).round(4).tolist()      # the 2 ms mode is too fast
+    [[1.0], [0.998], [0.996]]
+    """
+    spec = getattr(model, "stages", None)
+    taus = []
+    if spec is not None:
+        taus = [*spec.creep_time_constants_s, *spec.displacement_creep_time_constants_s,
+                spec.lag_time_constant_s]
+    t = np.arange(n_samples) * sample_period_s
+    slow = [float(tau) for tau in taus if tau >= MIN_HISTORY_MODE_SAMPLES * sample_period_s]
+    return np.column_stack([np.exp(-t / tau) for tau in slow]) if slow else np.zeros((n_samples, 0))
+
+
+def _affine(p, y, modes, rows=slice(None)):
+    """Least-squares ``y ≈ g p + c + modes @ a`` over ``rows``: the gain, the
+    offset and ``c + modes @ a`` over every sample (µm)."""
+    A = np.column_stack([p, np.ones_like(p), modes])
+    theta, *_ = np.linalg.lstsq(A[rows], y[rows], rcond=None)
+    return float(theta[0]), float(theta[1]), theta[1] + modes @ theta[2:]
 
 
 def _shifted(p, shift: int):
@@ -103,12 +138,13 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
     def predict(s):
         return plant.simulate(x, initial_extended_state(plant, x[0], s))
 
+    modes = history_modes(plant, v.size, sample_period_s)
     moving = [np.flatnonzero(high[:, i] - low[:, i] > 0) for i in range(h.n_operators)]
     if any(k.size for k in moving):
         for _ in range(STATE_ROUNDS):
             p = predict(state)
-            g, c = _affine(p, y)
-            e = y - g * p - c
+            g, _, free = _affine(p, y, modes)
+            e = y - g * p - free
             for i, k in enumerate(moving):
                 if k.size == 0 or b[i] == 0.0 or g == 0.0:
                     continue
@@ -131,17 +167,17 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
     best = None
     for shift in TIMING_SHIFTS_SAMPLES:
         ps = _shifted(p, shift)
-        g, c = _affine(ps[scored], y[scored])
-        e = y[scored] - (g * ps[scored] + c)
-        mse = float(np.mean(e**2))
+        g, c, free = _affine(ps, y, modes, scored)
+        fitted = g * ps + free
+        mse = float(np.mean((y[scored] - fitted[scored]) ** 2))
         if best is None or mse < best[0] * (1 - 1e-9):
-            best = (mse, shift, g, c, g * ps + c)
+            best = (mse, shift, g, c, fitted)
     mse, shift, g, c, prediction = best
     span = float(np.ptp(y[scored]))
     error = np.abs(y[scored] - prediction[scored])
     return {"rms_pct": 100.0 * float(np.sqrt(mse)) / span if span > 0 else float("nan"),
             "max_pct": 100.0 * float(error.max()) / span if span > 0 else float("nan"),
             "mse_um2": mse, "offset_um": c, "gain": g, "timing_samples": shift,
-            "scored_samples": int(scored.size),
+            "scored_samples": int(scored.size), "history_modes": int(modes.shape[1]),
             "noise_um": noise_sigma((y - prediction)[scored], quantum(y)),
             "initial_state_V": [float(s) for s in state], "prediction_um": prediction}

@@ -51,7 +51,7 @@ import numpy as np
 import scipy.linalg
 from numpy.linalg import LinAlgError
 from scipy.linalg import cholesky, solve_triangular
-from scipy.optimize import nnls
+from scipy.optimize import minimize_scalar, nnls
 
 from pysim.core.invertibility import branch_cases, square_range
 from pysim.core.metrics import error_measures
@@ -63,6 +63,8 @@ from pysim.identification.errors import IdentificationError
 MIN_TRAVEL_FRACTION = 0.5
 #: Alternating steps of the initial-state estimation (per start).
 STATE_ITERATIONS = 12
+#: Rounds of state steps through a column transform (see ``identify``).
+TRANSFORM_STATE_ROUNDS = 3
 #: Pivoted-QR tolerance below which an operator's column counts as a combination of the others
 #: (its weight is then tied to its neighbour's density).
 RANK_TOLERANCE = 1e-7
@@ -499,7 +501,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         passes through a linear stage (dynamics, delay); ``prediction_um`` is
         then that model's output.  The invertibility constraints still apply
         to the hysteresis parameters.  With ``warmup="auto"`` the initial state
-        is estimated by the fit without the transform.
+        is estimated by the fit without the transform, then refined through
+        it (a bounded search per operator, weights fixed).
     initial_state : array_like, optional
         A fixed operator state before the first sample (V of the shifted
         input) instead of estimating one.
@@ -887,16 +890,63 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         _, theta, active, condition, sse = solve(state0)
     A = np.column_stack([design(state0, low, high, u), extra_matrix])
 
+    def transformed(state):
+        A_t = np.column_stack([np.asarray(column_transform(design(state, low, high, u)), dtype=float),
+                               extra_matrix])
+        theta_t, active_t, condition_t = solve_lsi(A_t[rows], y[rows], G, h, names)
+        e = y[rows] - A_t[rows] @ theta_t
+        return state, A_t, theta_t, active_t, condition_t, float(e @ e)
+
+    def refine_through_transform(state, A_t, theta):
+        """Each operator's state for fixed weights, through the stage: the stage
+        spreads a state's effect over later samples, so the exact steps above do
+        not apply; a bounded scalar search per operator does (its error is
+        piecewise quadratic in the state).  The error is taken up to the last
+        sample that still remembers the state: a lightly damped stage would
+        otherwise let the state ring on and fit a disturbance late in the
+        record."""
+        state = state.copy()
+        b = weights_of(theta)
+        remembers = np.flatnonzero(np.any(high > low, axis=1))
+        window = np.arange(v.size)[rows]
+        window = window[window <= (remembers[-1] if remembers.size else -1)]
+        if window.size == 0:
+            return state
+        residual = (y - A_t @ theta)[window]
+        for i in range(r.size):
+            if b[i] == 0.0 or not np.any(high[:, i] > low[:, i]) or not high[0, i] > low[0, i]:
+                continue
+            current = np.minimum(np.maximum(state[i], low[:, i]), high[:, i])
+
+            def effect(s, i=i, current=current):
+                change = np.minimum(np.maximum(s, low[:, i]), high[:, i]) - current
+                return b[i] * np.asarray(column_transform(change[:, None]), dtype=float)[:, 0][window]
+
+            def cost(s, effect=effect):
+                e = residual - effect(s)
+                return float(e @ e)
+
+            found = minimize_scalar(cost, bounds=(low[0, i], high[0, i]), method="bounded",
+                                    options={"xatol": 1e-4 * (high[0, i] - low[0, i])})
+            if found.fun < float(residual @ residual):
+                residual = residual - effect(found.x)
+                state[i] = found.x
+        return state
+
     if column_transform is not None:
-        # the state estimated without the stage competes with the demagnetised one
-        best = None
-        for state in ([state0, demagnetised] if estimate else [state0]):
-            hyst = np.asarray(column_transform(design(state, low, high, u)), dtype=float)
-            A_t = np.column_stack([hyst, extra_matrix])
-            theta_t, active_t, condition_t = solve_lsi(A_t[rows], y[rows], G, h, names)
-            e = y[rows] - A_t[rows] @ theta_t
-            if best is None or float(e @ e) < best[-1]:
-                best = (state, A_t, theta_t, active_t, condition_t, float(e @ e))
+        # the state estimated without the stage competes with the demagnetised one, and the better
+        # one is refined through the stage
+        best = min((transformed(state) for state in ([state0, demagnetised] if estimate else [state0])),
+                   key=lambda fit: fit[-1])
+        if estimate and transient_rows.size:
+            for _ in range(TRANSFORM_STATE_ROUNDS):
+                try:
+                    candidate = transformed(refine_through_transform(best[0], best[1], best[2]))
+                except IdentificationError:
+                    break
+                if not candidate[-1] < best[-1] * (1.0 - 1e-4):
+                    break
+                best = candidate
         state0, A, theta, active, condition, sse = best
 
     a1 = float(theta[0]) if cubic else 0.0
