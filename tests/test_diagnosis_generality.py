@@ -87,6 +87,31 @@ def test_a_second_record_does_not_let_a_timing_shift_hide_a_lag(plant):
     assert scores["lagging"]["mse_um2"] > 2.0 * scores["plain"]["mse_um2"]
 
 
+def test_creep_left_by_the_history_before_the_second_record_is_scored_as_its_transient(plant, monkeypatch):
+    """Truth: a plant that creeps (a 2 s mode among others).  The second record is the tail of a
+    longer run that held the top of the range first, so its creep modes start far from rest; a
+    model with those modes is scored at the record's noise only when their free decay is fitted."""
+    from pysim.core.extended import ExtendedModel, StageSpec
+    from pysim.diagnosis import validation
+    from pysim.diagnosis.candidates import CandidateFit
+    from pysim.diagnosis.validation import score_on_record
+
+    creeping = ExtendedModel(plant, StageSpec(sample_period_s=T, creep_time_constants_s=(0.01, 0.3, 2.0),
+                                              creep_weights_um_per_V=(0.004, 0.004, 0.008)))
+    v_record = multisine(plant, 8000, 31)
+    v_run = np.concatenate((np.full(4000, plant.voltage_range_V[1]), v_record))
+    y = noisy(creeping.simulate(v_run)[4000:], 32)
+    sigma2 = (0.002 * np.ptp(y)) ** 2
+
+    def mse():
+        return score_on_record(CandidateFit("creep", creeping, None, {}), v_record, y, T,
+                               plant.voltage_range_V)["mse_um2"]
+
+    assert mse() < 1.3 * sigma2
+    monkeypatch.setattr(validation, "MIN_HISTORY_MODE_SAMPLES", np.inf)
+    assert mse() > 5.0 * sigma2
+
+
 def lagged(plant, v, tau_s):
     """The plant's output through an exact (zero-order-hold) first-order lag, at rest at the start."""
     import scipy.signal
@@ -151,6 +176,25 @@ def test_creep_of_the_displacement_is_named_and_predicts_a_new_input(plant):
     shares = np.asarray(family.parameters["shares"])
     assert np.all(shares >= 0) and shares.sum() <= MAX_CREEP_SHARE + 1e-12
     assert rms(fitter.finish(family, fitter.fit(family)).model) < 0.7 * rms(d.baseline.model)
+
+
+def test_a_slew_limit_that_a_quiet_first_record_hides_is_named_by_a_decisive_second_one():
+    """Truth (the independent generator's pair 63): an amplifier slew limit of 0.15 V/ms.  The
+    first record, a decaying triangle from an unknown history, is fitted to its noise by the
+    rate-independent models; the second, a multisine, is dominated by the limit, and the slew
+    limit fitted on the first record removes most of its residual: the second record decides."""
+    import independent_records
+
+    pair = independent_records.make_pair(63)
+    assert pair.truth.effect == "slew_limit"
+    train, other = pair.train, pair.validation
+    d = diagnose(train.voltage_V, train.displacement_um, train.sample_rate_hz,
+                 validate=(other.voltage_V, other.displacement_um, other.sample_rate_hz))
+    assert d.cross_validation_cause == "none", d.why
+    assert d.cause == "slew_limit" and d.validation["verdict_by"] == "second record", d.why
+    assert "first record shows nothing beyond its noise" in d.why
+    table = d.validation["table"]
+    assert table["slew_limit"]["rms_pct"] < 0.5 * min(table["baseline"]["rms_pct"], table["richer"]["rms_pct"])
 
 
 def test_second_record_at_another_sample_rate_is_one_clear_error(plant):

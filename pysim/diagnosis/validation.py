@@ -132,7 +132,6 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
     h = plant.hysteresis
     x = model.stage_input(v) if isinstance(model, InputStageModel) else v
     low, high = operator_bounds(x, h.thresholds_V, h.operator, h.input_offset_V)
-    state = np.clip(np.zeros(h.n_operators), low[0], high[0])
     b = np.asarray(h.weights_um_per_V, dtype=float)
 
     def predict(s):
@@ -140,8 +139,12 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
 
     modes = history_modes(plant, v.size, sample_period_s)
     moving = [np.flatnonzero(high[:, i] - low[:, i] > 0) for i in range(h.n_operators)]
-    if any(k.size for k in moving):
-        for _ in range(STATE_ROUNDS):
+
+    def estimate(state):
+        """Exact steps per operator from ``state``, alternating with the offset,
+        gain and modes; the state and its error sum."""
+        state = state.copy()
+        for _ in range(STATE_ROUNDS if any(k.size for k in moving) else 0):
             p = predict(state)
             g, _, free = _affine(p, y, modes)
             e = y - g * p - free
@@ -154,6 +157,14 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
                 new = best_clamped_state(target, L, U, low[0, i], high[0, i])
                 e[k] -= g * b[i] * (np.clip(new, L, U) - current)
                 state[i] = new
+        p = predict(state)
+        g, _, free = _affine(p, y, modes)
+        return state, float(np.sum((y - g * p - free) ** 2))
+
+    # three starts, as in identify: demagnetised, and the lowest and highest admissible states
+    # (a record that begins right after a fall from the top starts at the highest)
+    starts = [np.clip(np.zeros(h.n_operators), low[0], high[0]), low[0].copy(), high[0].copy()]
+    state = min((estimate(start) for start in starts), key=lambda found: found[1])[0]
     p = predict(state)
     lo, hi = train_range_V
     level = v
