@@ -482,14 +482,16 @@ class CandidateFitter:
             return self.v
         return apply_input_stage(family.input_stage[0], family.input_stage[1], self.v, self.T)
 
-    def with_estimated_state(self, family: Family) -> Family:
+    def with_estimated_state(self, family: Family, kept: IdentificationResult = None) -> tuple:
         """``family`` with the operator state at the start estimated with its
-        own structure (through its stages, on every sample).
+        own structure (through its stages, on every sample), and its fit on
+        every sample.
 
         The base's state was estimated without the effect, and a state can
         absorb part of an effect (a fast record's lag looks like a history),
         which the weights would otherwise have to undo.  The estimate replaces
-        the base's only where it fits the whole record better.
+        the base's only where it fits the whole record better than ``kept``
+        (the family's fit with its present state; fitted here if not given).
         """
         settings = dict(n_operators=family.n_operators, model=self.kind, operator=self.operator,
                         thresholds_V=family.thresholds_V, input_offset_V=family.input_offset_V,
@@ -498,13 +500,13 @@ class CandidateFitter:
                         require_excitation=False)
         x = self.operator_input(family)
         try:
-            kept = identify(x, self.y, initial_state=family.initial_state, **settings)
-            estimated = identify(x, self.y, **settings)
+            kept = kept or self.fit(family)
+            estimated = identify(x, self.y, start_state=family.initial_state, **settings)
         except IdentificationError:
-            return family
+            return family, kept
         if not estimated.objective < kept.objective:
-            return family
-        return replace(family, initial_state=np.asarray(estimated.initial_state, dtype=float))
+            return family, kept
+        return replace(family, initial_state=np.asarray(estimated.initial_state, dtype=float)), estimated
 
     def fit(self, family: Family, rows=None) -> IdentificationResult:
         """The linear parameters of ``family`` fitted on ``rows`` (default: all)."""

@@ -733,9 +733,10 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     character = character_split(v, T)
 
     def run(family):
+        result = fitter.fit(family)
         if family.cause not in ("baseline", "richer"):
-            family = fitter.with_estimated_state(family)
-        fit = fitter.finish(family, fitter.fit(family))
+            family, result = fitter.with_estimated_state(family, result)
+        fit = fitter.finish(family, result)
         return _evaluate(fitter, family, fit, folds, character, y, mask)
 
     try:

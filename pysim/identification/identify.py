@@ -460,7 +460,8 @@ def _reversal_check(v, rows, where):
 def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = "mpi",
              operator: str = "osp", thresholds_V=None, warmup="auto", fit_slice: slice = None,
              min_slope_fraction: float = 0.01, extra_regressors: dict = None, extra_nonnegative=(),
-             column_transform=None, initial_state=None, merge_unexcited: bool = True, fit_rows=None,
+             column_transform=None, initial_state=None, start_state=None, merge_unexcited: bool = True,
+             fit_rows=None,
              input_offset_V: float = None, require_excitation: bool = True, name: str = None,
              description: str = "") -> IdentificationResult:
     """Fit an MPI or CPI model to a measured record.
@@ -506,6 +507,11 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     initial_state : array_like, optional
         A fixed operator state before the first sample (V of the shifted
         input) instead of estimating one.
+    start_state : array_like, optional
+        With ``warmup="auto"``: a state estimated before (for a related
+        model) to start the estimation from, with the demagnetised one,
+        instead of screening many starts; with ``column_transform`` it is
+        refined through the transform only.
     merge_unexcited : bool
         Tie the weight of operators the fitted samples do not excite to their
         lower neighbour's density (default) instead of fitting it freely.
@@ -841,13 +847,21 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
                 scores.append(np.inf)
         return np.array(scores)
 
-    if estimate and transient_rows.size:
-        candidates = [demagnetised, low[0].copy(), high[0].copy()] + history_states()
+    warm = None if start_state is None else np.clip(np.asarray(start_state, dtype=float).ravel(), low[0], high[0])
+    if warm is not None and warm.size != r.size:
+        raise IdentificationError(f"start_state has {warm.size} entries, not {r.size}")
+    if estimate and transient_rows.size and warm is not None and column_transform is not None:
+        state0 = warm         # the estimate is refined through the transform below
+    elif estimate and transient_rows.size:
+        if warm is not None:
+            candidates = [warm, demagnetised]
+        else:
+            candidates = [demagnetised, low[0].copy(), high[0].copy()] + history_states()
         scores = screen(candidates)
         order = [int(j) for j in np.argsort(scores)[:3]]
         starts = [(candidates[j], None) for j in dict.fromkeys(order[:2] + [0])]
         settled = np.setdiff1d(np.arange(u_w.size), transient_rows)
-        if settled.size >= max(3 * n_params, u_w.size // 10):
+        if warm is None and settled.size >= max(3 * n_params, u_w.size // 10):
             # weights from the samples whose state the input has fixed, then
             # the states that fit the transient best for those weights
             A_s = np.column_stack([design(demagnetised, low_w[settled], high_w[settled], u_w[settled]),
