@@ -927,13 +927,14 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         if window.size == 0:
             return state
         residual = (y - A_t @ theta)[window]
+        stop = int(window[-1]) + 1          # the stage is causal: samples after the window are not needed
         for i in range(r.size):
             if b[i] == 0.0 or not np.any(high[:, i] > low[:, i]) or not high[0, i] > low[0, i]:
                 continue
             current = np.minimum(np.maximum(state[i], low[:, i]), high[:, i])
 
             def effect(s, i=i, current=current):
-                change = np.minimum(np.maximum(s, low[:, i]), high[:, i]) - current
+                change = np.minimum(np.maximum(s, low[:stop, i]), high[:stop, i]) - current[:stop]
                 return b[i] * np.asarray(column_transform(change[:, None]), dtype=float)[:, 0][window]
 
             def cost(s, effect=effect):
