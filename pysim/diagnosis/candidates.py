@@ -441,15 +441,12 @@ class CandidateFitter:
                                                  options={"xatol": 5e-3, "maxiter": 12})
         return math.exp(refined.x if refined.fun < scores[i] else grid[i])
 
-    def _with_input_stage(self, base: Family, cause: str, kind: str, parameter: float, **changes) -> Family:
-        return self._with(base, cause, input_stage=(kind, parameter), **changes)
-
     def rate_dependent_hysteresis(self, base: Family) -> Family:
         rows = self.search_rows.stop - self.search_rows.start
         grid = np.linspace(math.log(0.3 * self.T), math.log(max(3.0, rows / 20.0) * self.T), 12)
         tau = self._input_search(base, "lowpass", grid)
-        return self._with_input_stage(base, "rate_dependent_hysteresis", "lowpass", tau,
-                                      parameters={"input_time_constant_s": tau})
+        return self._with(base, "rate_dependent_hysteresis",
+                          parameters={"input_time_constant_s": tau}, input_stage=("lowpass", tau))
 
     def slew_limit(self, base: Family) -> Family:
         fastest = float(np.max(np.abs(np.diff(self.v)))) / self.T
@@ -457,8 +454,8 @@ class CandidateFitter:
             raise DiagnosisError("the input never changes: no slew limit can be fitted")
         grid = np.linspace(math.log(fastest / 40.0), math.log(fastest), 12)
         rate = self._input_search(base, "slew_limit", grid)
-        return self._with_input_stage(base, "slew_limit", "slew_limit", rate,
-                                      parameters={"rate_V_per_s": rate, "rate_V_per_ms": rate / 1e3})
+        return self._with(base, "slew_limit", parameters={"rate_V_per_s": rate, "rate_V_per_ms": rate / 1e3},
+                          input_stage=("slew_limit", rate))
 
     def family(self, cause: str, base: Family) -> Family:
         """Search the shape parameters of ``cause`` on top of ``base``."""
@@ -493,29 +490,28 @@ class CandidateFitter:
         the base's only where it fits the whole record better than ``kept``
         (the family's fit with its present state; fitted here if not given).
         """
-        settings = dict(n_operators=family.n_operators, model=self.kind, operator=self.operator,
-                        thresholds_V=family.thresholds_V, input_offset_V=family.input_offset_V,
-                        column_transform=None if family.transform is None else family.transform.apply_to_columns,
-                        extra_regressors=family.extras or None, extra_nonnegative=family.nonnegative,
-                        require_excitation=False)
-        x = self.operator_input(family)
         try:
             kept = kept or self.fit(family)
-            estimated = identify(x, self.y, start_state=family.initial_state, **settings)
+            estimated = identify(self.operator_input(family), self.y, start_state=family.initial_state,
+                                 **self._settings(family))
         except IdentificationError:
             return family, kept
         if not estimated.objective < kept.objective:
             return family, kept
         return replace(family, initial_state=np.asarray(estimated.initial_state, dtype=float)), estimated
 
+    def _settings(self, family: Family) -> dict:
+        """The structure of ``family`` as settings of :func:`identify` (its state excluded)."""
+        return dict(n_operators=family.n_operators, model=self.kind, operator=self.operator,
+                    thresholds_V=family.thresholds_V, input_offset_V=family.input_offset_V,
+                    column_transform=None if family.transform is None else family.transform.apply_to_columns,
+                    extra_regressors=family.extras or None, extra_nonnegative=family.nonnegative,
+                    require_excitation=False)
+
     def fit(self, family: Family, rows=None) -> IdentificationResult:
         """The linear parameters of ``family`` fitted on ``rows`` (default: all)."""
-        return identify(self.operator_input(family), self.y, n_operators=family.n_operators, model=self.kind,
-                        operator=self.operator, thresholds_V=family.thresholds_V,
-                        input_offset_V=family.input_offset_V, initial_state=family.initial_state,
-                        column_transform=None if family.transform is None else family.transform.apply_to_columns,
-                        extra_regressors=family.extras or None, extra_nonnegative=family.nonnegative,
-                        fit_rows=rows, require_excitation=False, name=self.name, description=self.description)
+        return identify(self.operator_input(family), self.y, initial_state=family.initial_state, fit_rows=rows,
+                        name=self.name, description=self.description, **self._settings(family))
 
     def finish(self, family: Family, result: IdentificationResult) -> CandidateFit:
         """The model of a fitted family, its state and prediction."""

@@ -36,15 +36,17 @@ Procedure (``diagnose``):
    above the noise, or no candidate is significant while the residual stays
    far above the noise, the verdict is ``unexplained``, with the evidence.
 5. **Second record** (``validate=``): every model fitted on the first record is
-   scored on a second record of the same actuator (its initial operator state
-   and the sensor offset and gain re-fitted and reported); the cause is then
+   scored on a second record of the same actuator (its initial operator state,
+   the free decay of its slow stage modes and the sensor offset and gain
+   re-fitted and reported); the cause is then
    named by that record -- with two exceptions that follow from what a record
    can show.  A second record on which the better rate-independent model is
    already within ``2 NOISE_FRACTION`` σ² of its noise cannot confirm any
    effect, so the first record's verdict stands unless its cause makes the
    second record worse; a first record that close to its noise floor has
    fitted every candidate's effect to noise, so the second record cannot
-   name one either.  And a candidate that the first record names and the
+   name one either, unless it is decisive (a large residual, most of it
+   removed by one cause that does not worsen the first record).  And a candidate that the first record names and the
    second finds significant too is named even when it leaves most of the
    second record's residual (the rest is reported), rather than
    ``unexplained``.  Without a second record, a split of

@@ -142,7 +142,7 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
 
     def estimate(state):
         """Exact steps per operator from ``state``, alternating with the offset,
-        gain and modes; the state and its error sum."""
+        gain and modes; the state, its error sum and its prediction."""
         state = state.copy()
         for _ in range(STATE_ROUNDS if any(k.size for k in moving) else 0):
             p = predict(state)
@@ -159,13 +159,12 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
                 state[i] = new
         p = predict(state)
         g, _, free = _affine(p, y, modes)
-        return state, float(np.sum((y - g * p - free) ** 2))
+        return state, float(np.sum((y - g * p - free) ** 2)), p
 
     # three starts, as in identify: demagnetised, and the lowest and highest admissible states
     # (a record that begins right after a fall from the top starts at the highest)
     starts = [np.clip(np.zeros(h.n_operators), low[0], high[0]), low[0].copy(), high[0].copy()]
-    state = min((estimate(start) for start in starts), key=lambda found: found[1])[0]
-    p = predict(state)
+    state, _, p = min((estimate(start) for start in starts), key=lambda found: found[1])
     lo, hi = train_range_V
     level = v
     if isinstance(model, InputStageModel) and train_voltage_V is not None:

@@ -920,16 +920,12 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         otherwise let the state ring on and fit a disturbance late in the
         record."""
         state = state.copy()
-        b = weights_of(theta)
-        remembers = np.flatnonzero(np.any(high > low, axis=1))
-        window = np.arange(v.size)[rows]
-        window = window[window <= (remembers[-1] if remembers.size else -1)]
         if window.size == 0:
             return state
+        b = weights_of(theta)
         residual = (y - A_t @ theta)[window]
-        stop = int(window[-1]) + 1          # the stage is causal: samples after the window are not needed
         for i in range(r.size):
-            if b[i] == 0.0 or not np.any(high[:, i] > low[:, i]) or not high[0, i] > low[0, i]:
+            if b[i] == 0.0 or not high[0, i] > low[0, i]:       # no weight, or a state fixed from the start
                 continue
             current = np.minimum(np.maximum(state[i], low[:, i]), high[:, i])
 
@@ -949,6 +945,12 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         return state
 
     if column_transform is not None:
+        # the fitted samples that still remember the state, and where they end (the stage is causal:
+        # the refinement needs no sample after them)
+        remembers = np.flatnonzero(np.any(high > low, axis=1))
+        window = np.arange(v.size)[rows]
+        window = window[window <= (remembers[-1] if remembers.size else -1)]
+        stop = int(window[-1]) + 1 if window.size else 0
         # the state estimated without the stage competes with the demagnetised one, and the better
         # one is refined through the stage
         best = min((transformed(state) for state in ([state0, demagnetised] if estimate else [state0])),
