@@ -40,6 +40,24 @@ STATE_ROUNDS = 4
 TIMING_SHIFTS_SAMPLES = (0,)
 #: Stage modes at least this slow (samples) get their history's free response fitted.
 MIN_HISTORY_MODE_SAMPLES = 20.0
+#: An input this close to the fitted range (fraction of its span) is inside it: a hold at the
+#: top of a second record that stops 0.03 V short of the first record's top (of 150 V) is no
+#: extrapolation, and leaving it out left only the rest level of a step record to score.
+RANGE_TOLERANCE_FRACTION = 1e-3
+
+
+def inside_range(values_V, low_V: float, high_V: float) -> np.ndarray:
+    """Mask of the values inside ``[low_V, high_V]``, widened on each side by
+    ``RANGE_TOLERANCE_FRACTION`` of its span.
+
+    Examples
+    --------
+    >>> inside_range([0.0, 99.99, 100.05, 100.2], 0.0, 100.0).tolist()
+    [True, True, True, False]
+    """
+    margin = RANGE_TOLERANCE_FRACTION * (float(high_V) - float(low_V))
+    values = np.asarray(values_V, dtype=float)
+    return (values >= low_V - margin) & (values <= high_V + margin)
 
 
 def history_modes(model, n_samples: int, sample_period_s: float) -> np.ndarray:
@@ -170,7 +188,7 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
     if isinstance(model, InputStageModel) and train_voltage_V is not None:
         seen = model.stage_input(np.asarray(train_voltage_V, dtype=float))
         lo, hi, level = float(seen.min()), float(seen.max()), x
-    scored = np.flatnonzero((level >= lo) & (level <= hi))
+    scored = np.flatnonzero(inside_range(level, lo, hi))
     scored = scored[(scored > 0) & (scored < v.size - 1)]
     if scored.size < 10:
         scored = np.arange(1, v.size - 1)
