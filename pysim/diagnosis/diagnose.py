@@ -744,18 +744,9 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                              "scored out of sample; record the range more than once")
     character = character_split(v, T)
 
-    def run(family):
-        result = fitter.fit(family)
-        if family.cause not in ("baseline", "richer"):
-            family, result = fitter.with_estimated_state(family, result)
-        fit = fitter.finish(family, result)
-        return _evaluate(fitter, family, fit, folds, character, y, mask)
-
-    try:
-        baseline = run(fitter.base("baseline"))
-    except IdentificationError as exc:
-        raise DiagnosisError(f"{where}{exc}") from exc
-    unidentified = baseline.fit.result.unidentified_reason if baseline.fit.result is not None else ""
+    # what the input cannot show is known from the rate-independent fit the fitter starts from (the
+    # baseline family is fitted on the same input and thresholds): decided before any cross-validation
+    unidentified = fitter.baseline_result.unidentified_reason
     if unidentified and _first_unidentified:
         raise _BothUnidentified()
     if unidentified and validate is not None:
@@ -768,6 +759,18 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                             _first_unidentified=unidentified)
         except (_BothUnidentified, DiagnosisError):
             pass
+
+    def run(family):
+        result = fitter.fit(family)
+        if family.cause not in ("baseline", "richer"):
+            family, result = fitter.with_estimated_state(family, result)
+        fit = fitter.finish(family, result)
+        return _evaluate(fitter, family, fit, folds, character, y, mask)
+
+    try:
+        baseline = run(fitter.base("baseline"))
+    except IdentificationError as exc:
+        raise DiagnosisError(f"{where}{exc}") from exc
     try:
         richer = run(fitter.base("richer"))
     except IdentificationError:
