@@ -207,10 +207,30 @@ class CandidateFitter:
         As in :func:`pysim.identification.identify.identify`.
     name, description : str
         Name and description of the fitted models.
+    fixed_hysteresis_um : array_like, optional
+        The hysteresis part's output on this record (µm), given by a model
+        identified on another record: nothing is identified here, and only
+        the shape parameters of the dynamics *after* the hysteresis
+        (``rate_dependence``, ``delay``) can be searched, on the design
+        ``[fixed_hysteresis_um, 1]``.  For a record that shows a lag or a
+        ringing but cannot identify the hysteresis (steps that only rise).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pysim.diagnosis.candidates import Family
+    >>> k = np.arange(4000)
+    >>> h = np.repeat([0.0, 5.0, 9.0, 12.0], 1000)            # a staircase, µm
+    >>> y = 0.3 + np.concatenate(([0.0] * 3, h[:-3]))         # seen three samples late
+    >>> search = CandidateFitter(h / 0.1, y, 1e-3, fixed_hysteresis_um=h)
+    >>> base = Family("baseline", 1, np.zeros(1), 0.0, np.zeros(1))
+    >>> round(search.delay(base).parameters["delay_samples"], 3)
+    3.0
     """
 
     def __init__(self, voltage_V, displacement_um, sample_period_s: float, *, n_operators: int = 10,
-                 model: str = "mpi", operator: str = "osp", name: str = "extended_mpi", description: str = ""):
+                 model: str = "mpi", operator: str = "osp", name: str = "extended_mpi", description: str = "",
+                 fixed_hysteresis_um=None):
         self.v = np.asarray(voltage_V, dtype=float)
         self.y = np.asarray(displacement_um, dtype=float)
         self.T = float(sample_period_s)
@@ -218,6 +238,19 @@ class CandidateFitter:
         self.kind, self.operator = model, operator
         self.name, self.description = name, description
         self.cubic = model == "mpi"
+        self._designs = {}
+        self.period_samples = None
+        rows = min(self.v.size, SEARCH_SAMPLES)
+        self.search_rows = slice(self.v.size - rows, self.v.size)
+        if fixed_hysteresis_um is not None:
+            h = np.asarray(fixed_hysteresis_um, dtype=float).ravel()
+            if h.shape != self.v.shape:
+                raise DiagnosisError(f"fixed_hysteresis_um has {h.size} samples, the record {self.v.size}")
+            self._fixed_design = np.asfortranarray(np.column_stack([h, np.ones_like(h)]))
+            self.baseline_result = self.richer_result = None
+            self.u, self.gain_sign = self.v, 1.0
+            return
+        self._fixed_design = None
         self.baseline_result = identify(self.v, self.y, n_operators=self.n, model=model, operator=operator,
                                         require_excitation=False)
         try:
@@ -226,12 +259,8 @@ class CandidateFitter:
         except IdentificationError:
             self.richer_result = self.baseline_result
         self.u = self.v - self.baseline_result.model.input_offset_V
-        rows = min(self.v.size, SEARCH_SAMPLES)
-        self.search_rows = slice(self.v.size - rows, self.v.size)
         gain = float(np.polyfit(self.v, self.y, 1)[0])
         self.gain_sign = 1.0 if gain >= 0 else -1.0
-        self._designs = {}
-        self.period_samples = None
 
     # ------------------------------------------------------------ families
     def base(self, which: str = "baseline") -> Family:
@@ -242,12 +271,23 @@ class CandidateFitter:
                       np.asarray(result.initial_state))
 
     def _design(self, base: Family) -> np.ndarray:
+        if self._fixed_design is not None:
+            return self._fixed_design
         key = base.n_operators
         if key not in self._designs:
             A, _ = regressors(self.v, base.thresholds_V, self.operator, base.input_offset_V, self.cubic,
                               initial_state=base.initial_state)
             self._designs[key] = np.asfortranarray(A)
         return self._designs[key]
+
+    def adopt(self, base: Family, found: Family) -> Family:
+        """The dynamics of ``found`` (searched on another record, e.g. with
+        ``fixed_hysteresis_um``) on top of this record's ``base``; its linear
+        parameters are then fitted here.  Output-stage dynamics only."""
+        if found.input_stage is not None or found.extras:
+            raise DiagnosisError(f"{found.cause}: only dynamics after the hysteresis can be adopted")
+        return self._with(base, found.cause, parameters=dict(found.parameters), stages=dict(found.stages),
+                          transform=found.transform)
 
     def _with(self, base: Family, cause: str, **changes) -> Family:
         return Family(cause, base.n_operators, base.thresholds_V, base.input_offset_V, base.initial_state,

@@ -129,9 +129,9 @@ def format_text(result, report, out) -> str:
                      f"cause {result.validation['cause']}; "
                      f"cross-validation alone: {result.cross_validation_cause}")
     if result.records_swapped:
-        lines.append(f"  records swapped: {result.validation['source'] or 'the first record'} cannot identify the "
-                     f"hysteresis, so the models were fitted on {result.source or 'the second record'} and scored "
-                     "on it")
+        lines.append(f"  records swapped: {result.swap_reason}, so the models were fitted on "
+                     f"{result.source or 'the second record'} and scored on "
+                     f"{result.validation['source'] or 'the first record'}")
     if result.excitation is not None:
         lines.append(f"\n  {len(result.causes)} causes explain the residual equally well: write the separating "
                      f"excitation with `pysim excite {result.source}`")
