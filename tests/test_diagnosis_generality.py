@@ -266,35 +266,51 @@ def resonant(plant, v, natural_frequency_hz, damping_ratio):
     return scipy.signal.lfilter(b, a, h, zi=scipy.signal.lfilter_zi(b, a) * h[0])[0]
 
 
-@pytest.mark.parametrize("resonance_hz", [15.0, 0.0])
-def test_a_resonance_that_only_upward_steps_show_is_searched_on_them(plant, resonance_hz):
-    """Truth: a 15 Hz, ζ 0.3 resonance after the hysteresis (or none).  The first record is a slow
-    sine, whose hysteresis model absorbs the resonance's small lag; the second, upward steps, rings
-    after each step but cannot identify the hysteresis.  The resonance's shape is searched on the
-    steps with the first record's hysteresis: it is named with its frequency and damping, and it
-    predicts a third input (steps up and down) better than the plain fit.  Without a resonance
-    the same pair names nothing."""
+def slew_limited(plant, v, rate_V_per_ms):
+    """The plant behind an amplifier that follows the command at most at ``rate_V_per_ms``."""
+    step = rate_V_per_ms * 1e3 * T
+    x = np.empty(len(v))
+    x[0] = v[0]
+    for k in range(1, len(v)):
+        x[k] = x[k - 1] + min(max(v[k] - x[k - 1], -step), step)
+    return plant.simulate(x)
+
+
+@pytest.mark.parametrize("truth", ["resonance", "slew_limit", "none"])
+def test_dynamics_that_only_upward_steps_show_are_searched_on_them(plant, truth):
+    """Truth: a 15 Hz, ζ 0.3 resonance after the hysteresis, a 2 V/ms amplifier slew limit before
+    it, or neither.  The first record is a slow sine, which hides both (the resonance's small lag
+    is absorbed in the loop's width, the limit is never reached); the second, upward steps, rings
+    or ramps after each step but cannot identify the hysteresis.  The effect's shape is searched
+    on the steps with the first record's hysteresis: it is named with its parameters, and it
+    predicts a third input (steps up and down) better than the plain fit.  Without an effect the
+    same pair names nothing.  (Before the search, the resonance was missed, and a lag searched
+    alone on the steps named the slew limit a resonance.)"""
     top = plant.voltage_range_V[1]
     k = np.arange(18000)
     v1 = top * (0.5 - 0.48 * np.cos(2 * np.pi * k / 6000))
     v2 = np.repeat(np.linspace(0.0, top, 7), 900)
     v3 = steps(plant, 8000, 31)
+    respond = {"resonance": lambda v: resonant(plant, v, 15.0, 0.3),
+               "slew_limit": lambda v: slew_limited(plant, v, 2.0),
+               "none": plant.simulate}[truth]
 
-    def record(v, seed):
-        return noisy(resonant(plant, v, resonance_hz, 0.3) if resonance_hz else plant.simulate(v), seed)
-
-    d = diagnose(v1, record(v1, 41), FS, validate=(v2, record(v2, 42), FS))
-    if not resonance_hz:
+    d = diagnose(v1, noisy(respond(v1), 41), FS, validate=(v2, noisy(respond(v2), 42), FS))
+    if truth == "none":
         assert d.cause == "none" and d.causes == (), d.why
         return
     assert d.cross_validation_cause == "none", d.why             # the sine alone shows nothing
-    assert d.cause == "rate_dependence" and not d.records_swapped, d.why
+    cause = "rate_dependence" if truth == "resonance" else "slew_limit"
+    assert d.cause == cause and d.causes == (cause,) and not d.records_swapped, d.why
     p = d.extended.fit.parameters
-    assert p["order"] == 2 and abs(p["natural_frequency_hz"] / resonance_hz - 1) < 0.03, p
-    assert abs(p["damping_ratio"] - 0.3) < 0.03, p
-    assert d.candidates["rate_dependence"].validation["shape_fitted_on"] == "second record"
+    if truth == "resonance":
+        assert p["order"] == 2 and abs(p["natural_frequency_hz"] / 15.0 - 1) < 0.03, p
+        assert abs(p["damping_ratio"] - 0.3) < 0.03, p
+    else:
+        assert abs(p["rate_V_per_ms"] / 2.0 - 1) < 0.03, p
+    assert d.candidates[cause].validation["shape_fitted_on"] == "second record"
     assert "searched on the second record" in d.validation["note"]
-    clean = resonant(plant, v3, resonance_hz, 0.3)
+    clean = respond(v3)
     rms = {label: float(np.sqrt(np.mean((getattr(d, label).model.simulate(v3) - clean)[100:] ** 2)))
            for label in ("baseline", "extended")}
     assert rms["extended"] < 0.3 * rms["baseline"], rms

@@ -207,22 +207,23 @@ class CandidateFitter:
         As in :func:`pysim.identification.identify.identify`.
     name, description : str
         Name and description of the fitted models.
-    fixed_hysteresis_um : array_like, optional
-        The hysteresis part's output on this record (µm), given by a model
-        identified on another record: nothing is identified here, and only
-        the shape parameters of the dynamics *after* the hysteresis
-        (``rate_dependence``, ``delay``) can be searched, on the design
-        ``[fixed_hysteresis_um, 1]``.  For a record that shows a lag or a
-        ringing but cannot identify the hysteresis (steps that only rise).
+    fixed_hysteresis : callable, optional
+        ``fixed_hysteresis(input_stage)`` → the hysteresis part's output on
+        this record (µm), from a model identified on another record, with an
+        input stage ``(kind, parameter)`` before it or none (``None``).
+        Nothing is identified here: only the shape parameters of the dynamics
+        (``rate_dependence``, ``delay``, ``rate_dependent_hysteresis``,
+        ``slew_limit``) are searched, each on the design ``[hysteresis, 1]``.
+        For a record that shows such dynamics but cannot identify the
+        hysteresis (steps that only rise: the ringing, lag or ramp after each).
 
     Examples
     --------
     >>> import numpy as np
     >>> from pysim.diagnosis.candidates import Family
-    >>> k = np.arange(4000)
     >>> h = np.repeat([0.0, 5.0, 9.0, 12.0], 1000)            # a staircase, µm
     >>> y = 0.3 + np.concatenate(([0.0] * 3, h[:-3]))         # seen three samples late
-    >>> search = CandidateFitter(h / 0.1, y, 1e-3, fixed_hysteresis_um=h)
+    >>> search = CandidateFitter(h / 0.1, y, 1e-3, fixed_hysteresis=lambda stage: h)
     >>> base = Family("baseline", 1, np.zeros(1), 0.0, np.zeros(1))
     >>> round(search.delay(base).parameters["delay_samples"], 3)
     3.0
@@ -230,7 +231,7 @@ class CandidateFitter:
 
     def __init__(self, voltage_V, displacement_um, sample_period_s: float, *, n_operators: int = 10,
                  model: str = "mpi", operator: str = "osp", name: str = "extended_mpi", description: str = "",
-                 fixed_hysteresis_um=None):
+                 fixed_hysteresis=None):
         self.v = np.asarray(voltage_V, dtype=float)
         self.y = np.asarray(displacement_um, dtype=float)
         self.T = float(sample_period_s)
@@ -242,11 +243,9 @@ class CandidateFitter:
         self.period_samples = None
         rows = min(self.v.size, SEARCH_SAMPLES)
         self.search_rows = slice(self.v.size - rows, self.v.size)
-        if fixed_hysteresis_um is not None:
-            h = np.asarray(fixed_hysteresis_um, dtype=float).ravel()
-            if h.shape != self.v.shape:
-                raise DiagnosisError(f"fixed_hysteresis_um has {h.size} samples, the record {self.v.size}")
-            self._fixed_design = np.asfortranarray(np.column_stack([h, np.ones_like(h)]))
+        self._fixed = fixed_hysteresis
+        if fixed_hysteresis is not None:
+            self._fixed_design = self._fixed_columns(None)
             self.baseline_result = self.richer_result = None
             self.u, self.gain_sign = self.v, 1.0
             return
@@ -270,6 +269,12 @@ class CandidateFitter:
         return Family(which, m.n_operators, np.asarray(m.thresholds_V), m.input_offset_V,
                       np.asarray(result.initial_state))
 
+    def _fixed_columns(self, input_stage) -> np.ndarray:
+        h = np.asarray(self._fixed(input_stage), dtype=float).ravel()
+        if h.shape != self.v.shape:
+            raise DiagnosisError(f"the fixed hysteresis output has {h.size} samples, the record {self.v.size}")
+        return np.asfortranarray(np.column_stack([h, np.ones_like(h)]))
+
     def _design(self, base: Family) -> np.ndarray:
         if self._fixed_design is not None:
             return self._fixed_design
@@ -282,12 +287,13 @@ class CandidateFitter:
 
     def adopt(self, base: Family, found: Family) -> Family:
         """The dynamics of ``found`` (searched on another record, e.g. with
-        ``fixed_hysteresis_um``) on top of this record's ``base``; its linear
-        parameters are then fitted here.  Output-stage dynamics only."""
-        if found.input_stage is not None or found.extras:
-            raise DiagnosisError(f"{found.cause}: only dynamics after the hysteresis can be adopted")
+        ``fixed_hysteresis``) on top of this record's ``base``; its linear
+        parameters are then fitted here.  Stages with shape parameters only
+        (creep's and drift's parameters are linear: they are fitted here)."""
+        if found.extras:
+            raise DiagnosisError(f"{found.cause}: its parameters are linear, fitted on each record")
         return self._with(base, found.cause, parameters=dict(found.parameters), stages=dict(found.stages),
-                          transform=found.transform)
+                          transform=found.transform, input_stage=found.input_stage)
 
     def _with(self, base: Family, cause: str, **changes) -> Family:
         return Family(cause, base.n_operators, base.thresholds_V, base.input_offset_V, base.initial_state,
@@ -464,6 +470,8 @@ class CandidateFitter:
                 np.clip(np.zeros(len(base.thresholds_V)), low[0], high[0])]
 
     def _input_sse(self, base: Family, kind: str, parameter: float) -> float:
+        if self._fixed is not None:
+            return _lsq_sse(self._fixed_columns((kind, parameter))[self.search_rows], self.y[self.search_rows])
         x = apply_input_stage(kind, parameter, self.v, self.T)
         scores = []
         for state in self.stage_states(base, x):

@@ -67,6 +67,7 @@ from pysim.core.metrics import error_measures
 from pysim.diagnosis.candidates import EFFECTS, CandidateFit, CandidateFitter, Family
 from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.excitation import separating_excitation
+from pysim.diagnosis.input_stages import InputStageModel
 from pysim.diagnosis.residuals import noise_sigma, quantum, residual_statistics
 from pysim.diagnosis.validation import inside_range, score_on_record
 from pysim.identification.identify import IdentificationError, identify, start_transient
@@ -682,7 +683,11 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         record and scored on the first (``Diagnosis.records_swapped``).  When
         the first record shows no effect, the second takes its turn the same
         way: an effect that only its input excites (creep under slow holds, a
-        resonance under steps) is named by it and confirmed on the first.
+        lag a single sine hides) is named by it and confirmed on the first.
+        A second record that cannot identify the hysteresis still shows the
+        shape of a lag, resonance, delay, input low-pass or slew limit (the
+        response to each step): those shapes are searched there, with the
+        first record's hysteresis.
     name : str
         Name of the extended model (a C identifier).
     source, validate_source : str
@@ -1017,9 +1022,9 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
     return _validation_result(baseline, richer, candidates, noise2, verdict, standing, not quiet, by)
 
 
-#: Dynamics after the hysteresis whose shape a second record can show without identifying the
-#: hysteresis itself (the ringing after an upward step, a lag under a staircase).
-DYNAMICS = ("rate_dependence", "delay")
+#: Dynamics whose shape a second record can show without identifying the hysteresis itself (the
+#: ringing after an upward step, a lag, a delay, the ramp of a slew limit, an input low-pass).
+DYNAMICS = ("rate_dependence", "delay", "rate_dependent_hysteresis", "slew_limit")
 
 
 def _dynamics_where_they_show(fitter, run, reference, candidates, v1, v2, y2, noise1_um) -> list:
@@ -1031,11 +1036,15 @@ def _dynamics_where_they_show(fitter, run, reference, candidates, v1, v2, y2, no
     cross-validated error on the first stays within ``NOISE_FRACTION`` σ² of
     the first version's (a shape the first record contradicts is not taken).
 
-    A staircase shows a resonance in the ringing after each step, which a slow
-    first record cannot: independent seed 73 (20 Hz, ζ 0.41, 8.5 σ on a
-    step record; the roles swap because the steps only rise) was missed when
-    the shape came from the first record (a sine), and is found at 20.05 Hz,
-    ζ 0.405 this way.  Returns the causes replaced.
+    A staircase shows a resonance in the ringing after each step, and a slew
+    limit in the ramp, which a slow first record cannot: independent seed 73
+    (20 Hz, ζ 0.41, 8.5 σ on a step record; the roles swap because the steps
+    only rise) was missed when the shape came from the first record (a sine),
+    and is found at 20.05 Hz, ζ 0.405 this way.  Every cause with a shape is
+    searched, not only the one that shows: a lag searched alone on a slew
+    limit's ramps explains most of them and would be named.  Creep and drift
+    have linear parameters only, fitted on the first record.  Returns the
+    causes replaced.
     """
     train_range = (float(v1.min()), float(v1.max()))
 
@@ -1044,8 +1053,16 @@ def _dynamics_where_they_show(fitter, run, reference, candidates, v1, v2, y2, no
             ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1)
         return ev.validation["mse_um2"]
 
-    scored(reference)
-    search = CandidateFitter(v2, y2, fitter.T, fixed_hysteresis_um=reference.validation["prediction_um"])
+    def hysteresis(input_stage):
+        """The reference's hysteresis part on the second record, behind ``input_stage``."""
+        if input_stage is None:
+            scored(reference)
+            return reference.validation["prediction_um"]
+        model = InputStageModel(reference.fit.model, *input_stage, fitter.T)
+        return score_on_record(CandidateFit(reference.cause, model, None, {}), v2, y2, fitter.T, train_range,
+                               train_voltage_V=v1)["prediction_um"]
+
+    search = CandidateFitter(v2, y2, fitter.T, fixed_hysteresis=hysteresis)
     replaced = []
     for cause in DYNAMICS:
         if cause not in candidates:
