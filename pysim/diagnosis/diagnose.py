@@ -910,9 +910,9 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                   "extended": residual_statistics((y - extended.prediction_um)[held], v[held], sample_rate_hz,
                                                   noise)}
     if cause == "none" and validate is not None and not unidentified and not _swap_reason:
-        # an effect that the first record's input does not excite (creep under the second record's
-        # holds, a resonance under its steps) shows only when the second record is the one fitted and
-        # cross-validated; its verdict must then hold on the first record, by the same rules
+        # an effect that the first record's input does not excite (creep that a single sine hides in
+        # the loop's shape and a multisine shows) is found only when the second record is the one
+        # fitted and cross-validated; its verdict must then hold on the first record, by the same rules
         first, second = source or "the first record", validate_source or "the second record"
         turned = in_turn(f"{first} shows no effect beyond its noise, and {second} may show one that the input "
                          f"of {first} does not excite")
