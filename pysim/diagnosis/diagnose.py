@@ -835,6 +835,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
             continue
         candidates[cause] = ev
 
+    step = quantum(y)
     shaped_on_second = []
     if validate is not None:
         try:
@@ -843,11 +844,9 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         except IdentificationError:
             second_unidentified = ""
         if second_unidentified:
-            shaped_on_second = _dynamics_where_they_show(
-                fitter, run, rate_independent, candidates, v, v2, y2,
-                noise_sigma(y - baseline.prediction_um, quantum(y)))
+            shaped_on_second = _dynamics_where_they_show(fitter, run, rate_independent, candidates, v, v2, y2,
+                                                         noise_sigma(y - baseline.prediction_um, step))
 
-    step = quantum(y)
     noise = min(noise_sigma(y - ev.prediction_um, step)
                 for ev in [baseline, richer, *candidates.values()])
     ref_mse = min(baseline.mse_um2, richer.mse_um2)
@@ -975,8 +974,8 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
     # there, whatever it gains on the second record: a trend or a creep standing in for a hysteresis
     # shape outside the model class (a Bouc-Wen plant: a drift 0.35 σ² worse out of sample on the
     # multisine it was fitted on was named for 0.49 σ² gained on a sine)
-    contradicted = {c for c, ev in candidates.items() if ev.mse_um2 > ref_cv + NOISE_FRACTION * noise1**2}
-    verdict = decide({c: m for c, m in mse.items() if c not in contradicted}, baseline.validation["mse_um2"],
+    worse_where_fitted = {c for c, ev in candidates.items() if ev.mse_um2 > ref_cv + NOISE_FRACTION * noise1**2}
+    verdict = decide({c: m for c, m in mse.items() if c not in worse_where_fitted}, baseline.validation["mse_um2"],
                      richer.validation["mse_um2"], noise2, complexity)
     if verdict["cause"] in EFFECTS:
         # the second record names the cause; among the candidates significant on both records the
