@@ -6,11 +6,13 @@ Records are made here from an MPI plant and effects written out in the test
 (shifts, input stages, disturbances), so every truth is independent of the
 fitted models.
 """
+import math
+
 import numpy as np
 import pytest
 
 from pysim.diagnosis.candidates import MAX_CREEP_SHARE, CandidateFitter
-from pysim.diagnosis.diagnose import decide, diagnose, make_folds
+from pysim.diagnosis.diagnose import decide, diagnose, make_folds, removal_holds
 from pysim.diagnosis.excitation import separating_excitation
 from pysim.diagnosis.input_stages import InputStageModel, input_lowpass, slew_limit
 from pysim.identification.data import load_measured, shipped_dataset
@@ -225,19 +227,23 @@ def test_a_second_record_that_only_the_first_records_hysteresis_fails_is_not_dec
 
 def test_an_effect_that_only_the_second_records_input_excites_is_named_when_it_takes_its_turn():
     """Truth (the independent generator's pair 2): creep, 5 % of the displacement over modes of
-    18 ms to 0.8 s.  The first record, a sine from rest, shows nothing beyond its noise (its
-    rate-independent fit absorbs the creep); the second, a multisine, shows it plainly when it is
-    the record fitted and cross-validated, and a creep fitted there also lowers the first record's
-    error.  Before the second record took its turn, nothing was named.  The extended model must
-    predict a third record, which the diagnosis never saw, better than the plain fit."""
+    18 ms to 0.8 s.  Its first record, a sine from rest, shows the creep 0.8 σ above the noise: named
+    by the near-noise rule.  With three times the noise (a noisier sensor, the same actuator) that sine
+    shows nothing beyond its noise (its rate-independent fit absorbs the creep); the second record, a
+    multisine, shows it plainly when it is the record fitted and cross-validated.  Before the second
+    record took its turn, nothing was named.  The extended model must predict a third record, which
+    the diagnosis never saw, better than the plain fit."""
     import independent_records
 
     pair = independent_records.make_pair(2)
     assert pair.truth.effect == "creep"
     train, other, third = pair.train, pair.validation, pair.test
-    alone = diagnose(train.voltage_V, train.displacement_um, train.sample_rate_hz)
+    assert diagnose(train.voltage_V, train.displacement_um, train.sample_rate_hz).cause == "creep"
+    noisier = train.displacement_um + np.random.default_rng(5).normal(
+        0.0, pair.truth.noise_sigma_um * math.sqrt(3.0**2 - 1.0), train.displacement_um.size)
+    alone = diagnose(train.voltage_V, noisier, train.sample_rate_hz)
     assert alone.cause == "none", alone.why                  # the first record shows nothing
-    d = diagnose(train.voltage_V, train.displacement_um, train.sample_rate_hz,
+    d = diagnose(train.voltage_V, noisier, train.sample_rate_hz,
                  validate=(other.voltage_V, other.displacement_um, other.sample_rate_hz),
                  source="sine.csv", validate_source="multisine.csv")
     assert d.cause == "creep" and d.causes == ("creep",), d.why
@@ -246,8 +252,8 @@ def test_an_effect_that_only_the_second_records_input_excites_is_named_when_it_t
     assert d.as_json()["evidence"]["swap_reason"] == d.swap_reason and d.why.startswith("the records' roles")
     from pysim.cli.commands.diagnose import format_text
     assert "records swapped: sine.csv shows no effect" in format_text(d, None, None)
-    table = d.validation["table"]                             # confirmed on the first record
-    assert table["creep"]["rms_pct"] < 0.8 * min(table["baseline"]["rms_pct"], table["richer"]["rms_pct"])
+    table = d.validation["table"]                             # not contradicted on the first record
+    assert table["creep"]["rms_pct"] <= min(table["baseline"]["rms_pct"], table["richer"]["rms_pct"])
     part = slice(third.settle_samples, None)
     rms = {label: float(np.sqrt(np.mean((getattr(d, label).model.simulate(third.voltage_V)[part]
                                          - third.clean_um[part]) ** 2)))
@@ -264,6 +270,29 @@ def resonant(plant, v, natural_frequency_hz, damping_ratio):
     b = np.ravel(b)
     h = plant.simulate(v)
     return scipy.signal.lfilter(b, a, h, zi=scipy.signal.lfilter_zi(b, a) * h[0])[0]
+
+
+def test_a_lag_seen_on_one_sine_is_fitted_as_a_lag_not_a_resonance():
+    """One frequency fixes a stage's phase there and nothing else: a lag and a resonance fit it
+    alike, and only held-out blocks may choose the resonance.  Truth (the independent generator's
+    pair 137): a 50 ms first-order lag after an MPI plant of many operators off the eq. 13 grid, a
+    sine from an unknown history, 1.1 σ of it that no rate-independent model absorbs.  The lag
+    candidate must be first order near 50 ms, and predict the pair's other record, a chirp, better
+    than the plain fit (an in-sample BIC chose a 2.2 Hz resonance that predicts it worse)."""
+    import independent_records
+
+    pair = independent_records.make_pair(137)
+    truth = pair.truth.effect_parameters
+    assert pair.truth.effect == "rate_dependence" and truth["order"] == 1
+    train, chirp = pair.train, pair.validation
+    d = diagnose(train.voltage_V, train.displacement_um, train.sample_rate_hz)
+    lag = d.candidates["rate_dependence"]
+    assert lag.fit.parameters["order"] == 1, lag.fit.parameters
+    assert lag.fit.parameters["time_constant_s"] == pytest.approx(truth["time_constant_s"], rel=0.2)
+    part = slice(chirp.settle_samples, None)
+    rms = {label: float(np.sqrt(np.mean((model.simulate(chirp.voltage_V)[part] - chirp.clean_um[part]) ** 2)))
+           for label, model in (("plain", d.baseline.fit.model), ("lag", lag.fit.model))}
+    assert rms["lag"] < 0.5 * rms["plain"], rms
 
 
 def slew_limited(plant, v, rate_V_per_ms):
@@ -494,6 +523,42 @@ def test_decide_follows_its_rules():
     assert d["cause"] == "unexplained" and d["explained_share"] == pytest.approx(10 / 29)
     # the residual far above the noise and nothing significant: unexplained too
     assert decide({"creep": 30.0}, 30.0, 30.0, s, {})["cause"] == "unexplained"
+
+
+def test_an_effect_near_the_noise_is_named_only_when_its_removal_holds_across_the_record():
+    s = 1.0
+    # 0.12 σ² above the noise, all of it removed, consistently: named
+    assert decide({"creep": 1.0}, 1.12, 1.12, s, {}, consistent={"creep": True})["cause"] == "creep"
+    # the same removal carried by a few stretches of the record: not named
+    assert decide({"creep": 1.0}, 1.12, 1.12, s, {}, consistent={"creep": False})["cause"] == "none"
+    # without the consistency evidence the noise margin alone decides
+    assert decide({"creep": 1.0}, 1.12, 1.12, s, {})["cause"] == "none"
+    # below the near-noise floor, or less than half of what is above the noise: not named
+    assert decide({"creep": 1.0}, 1.05, 1.05, s, {}, consistent={"creep": True})["cause"] == "none"
+    assert decide({"creep": 1.4}, 1.6, 1.6, s, {}, consistent={"creep": True})["cause"] == "none"
+    # two consistent candidates near the noise: the tie margin is half of what the best removes
+    d = decide({"delay": 1.0, "creep": 1.03, "drift": 1.1}, 1.2, 1.2, s, {"delay": 1, "creep": 3, "drift": 2},
+               consistent={"delay": True, "creep": True, "drift": True})
+    assert d["causes"] == ("delay", "creep")
+
+
+def test_removal_holds_when_it_is_spread_over_the_record_not_when_one_stretch_carries_it():
+    rng = np.random.default_rng(3)
+    n = 20000
+    noise = rng.normal(0.0, 1.0, n)
+    effect = 0.3 * np.sin(np.arange(n) / 40.0)          # 0.045 σ² spread over the whole record
+    y = effect + noise
+    assert removal_holds(y, np.zeros(n), effect)
+    # a candidate that predicts the noise itself in one twentieth of the record removes about as much
+    # on average (0.05 σ²), but from one stretch only
+    lucky = np.zeros(n)
+    lucky[:n // 20] = y[:n // 20]
+    assert float(np.mean(y**2 - (y - lucky) ** 2)) > 0.04
+    assert not removal_holds(y, np.zeros(n), lucky)
+    # NaN (not scored) samples are left out; too few scored samples prove nothing
+    half = np.where(np.arange(n) < n // 2, effect, np.nan)
+    assert removal_holds(y, np.zeros(n), half)
+    assert not removal_holds(y[:100], np.zeros(100), effect[:100])
 
 
 def test_folds_score_only_inside_the_training_range():

@@ -19,8 +19,9 @@ Every family is physically admissible by construction:
     never blamed on dynamics.
 ``rate_dependence``
     ``y = G[h]``: a first-order lag ``1/(τ s + 1)`` or a second-order stage
-    ``ω²/(s² + 2ζω s + ω²)`` after the hysteresis (stable, unit static gain),
-    chosen by BIC.  The damping keeps the free ringing (decay time
+    ``ω²/(s² + 2ζω s + ω²)`` after the hysteresis (stable, unit static gain);
+    ``diagnose`` fits both and keeps the order that predicts held-out data better
+    (BIC in sample when the order is not given).  The damping keeps the free ringing (decay time
     ``1/(ζω)``) within ``MAX_RINGING_SHARE`` of the record: a resonance that
     rings on longer cannot be told from a disturbance at its frequency.
 ``delay``
@@ -303,7 +304,12 @@ class CandidateFitter:
         columns = stages.apply_to_columns(self._design(base))
         return _lsq_sse(columns[self.search_rows], self.y[self.search_rows])
 
-    def rate_dependence(self, base: Family) -> Family:
+    def rate_dependence(self, base: Family, order: int | None = None) -> Family:
+        """A lag (``order`` 1) or a second-order stage (2) after the hysteresis; ``None``: the
+        order by BIC on the searched rows (in sample; :func:`~pysim.diagnosis.diagnose` compares
+        both orders out of sample instead)."""
+        if order not in (None, 1, 2):
+            raise DiagnosisError(f"the order of a rate-dependence stage is 1 or 2, not {order!r}")
         T = self.T
         rows = self.search_rows.stop - self.search_rows.start
         fs = 1.0 / T
@@ -341,7 +347,7 @@ class CandidateFitter:
         if refined.fun < sse2:
             sse2, (a, b) = refined.fun, refined.x
         f2, z2 = clip((a, b))
-        if _bic(sse2, rows, 2) < _bic(sse1, rows, 1):
+        if order == 2 or (order is None and _bic(sse2, rows, 2) < _bic(sse1, rows, 1)):
             return self._with(base, "rate_dependence",
                               parameters={"order": 2, "natural_frequency_hz": f2, "damping_ratio": z2},
                               stages={"resonance_hz": f2, "damping_ratio": z2},

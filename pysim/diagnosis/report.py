@@ -26,7 +26,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from pysim.core.fileio import staged_directory
-from pysim.diagnosis.diagnose import MIN_GAIN_PCT, NOISE_FRACTION, Diagnosis
+from pysim.diagnosis.diagnose import MIN_GAIN_PCT, NEAR_NOISE_FRACTION, NOISE_FRACTION, Diagnosis
 from pysim.diagnosis.residuals import binned_mean, cross_correlation, spectrum, time_since_change
 
 BASE_COLOUR, EXTENDED_COLOUR, MEASURED_COLOUR = "tab:red", "tab:blue", "black"
@@ -325,7 +325,9 @@ def summary_markdown(d: Diagnosis) -> str:
         f"- Noise level σ = {d.noise_um:.4g} µm ({ev['noise_pct']:.3g} % of the range), from the "
         f"sample-to-sample differences of the residuals (smallest over all models).",
         f"- A candidate is significant when it removes at least {NOISE_FRACTION} σ² of mean-square error and "
-        f"{MIN_GAIN_PCT:.0f} % of the RMS error against the baseline *and* the richer rate-independent model.",
+        f"{MIN_GAIN_PCT:.0f} % of the RMS error against the baseline *and* the richer rate-independent model "
+        f"-- or, near the noise, at least {NEAR_NOISE_FRACTION} σ² and half of what the better of them leaves "
+        f"above the noise, with a removal that holds across the record (batch means, 3 standard errors).",
         "",
     ]
     if d.validation:
