@@ -542,6 +542,24 @@ def test_an_effect_near_the_noise_is_named_only_when_its_removal_holds_across_th
     assert d["causes"] == ("delay", "creep")
 
 
+@pytest.mark.parametrize("seed", [4, 5])
+def test_coloured_noise_without_an_effect_names_nothing(plant, seed):
+    """Sensor noise that is not white (an AR(1) part, correlation 0.5 per sample, twice the white
+    part) has a larger variance than the sample-to-sample differences show, so the noise σ is
+    underestimated: no candidate may be named near that noise for it."""
+    v = multisine(plant, 10000, seed)
+    y = plant.simulate(v)
+    rng = np.random.default_rng(seed)
+    e = rng.normal(0.0, 1.0, y.size)
+    coloured = np.empty_like(e)
+    coloured[0] = e[0]
+    for k in range(1, e.size):
+        coloured[k] = 0.5 * coloured[k - 1] + math.sqrt(1 - 0.25) * e[k]
+    span = float(np.ptp(y))
+    d = diagnose(v, y + 0.002 * span * coloured + 0.001 * span * rng.normal(0.0, 1.0, y.size), FS)
+    assert d.cause == "none", d.why
+
+
 def test_removal_holds_when_it_is_spread_over_the_record_not_when_one_stretch_carries_it():
     rng = np.random.default_rng(3)
     n = 20000
