@@ -238,7 +238,9 @@ def test_an_effect_that_only_the_second_records_input_excites_is_named_when_it_t
     pair = independent_records.make_pair(2)
     assert pair.truth.effect == "creep"
     train, other, third = pair.train, pair.validation, pair.test
-    assert diagnose(train.voltage_V, train.displacement_um, train.sample_rate_hz).cause == "creep"
+    sine_alone = diagnose(train.voltage_V, train.displacement_um, train.sample_rate_hz)
+    assert sine_alone.cause == "creep", sine_alone.why
+    assert "significant near the noise" in sine_alone.reasons["creep"]
     noisier = train.displacement_um + np.random.default_rng(5).normal(
         0.0, pair.truth.noise_sigma_um * math.sqrt(3.0**2 - 1.0), train.displacement_um.size)
     alone = diagnose(train.voltage_V, noisier, train.sample_rate_hz)

@@ -686,6 +686,8 @@ def _reasons(candidates: dict, stats: dict) -> dict:
             shape = f"amplifier slew limit {p['rate_V_per_ms']:.4g} V/ms"
             hint = f"residual-rate correlation {stats['rate_correlation']:+.2f}"
         verdict = "significant" if ev.significant else "not significant"
+        if ev.significant and ev.excess_over_noise < NOISE_FRACTION:
+            verdict = "significant near the noise: at least half of the excess, and it holds across the record"
         cond = ev.fit.result.condition_number if ev.fit.result is not None else float("nan")
         text[cause] = (f"{shape}: cross-validated RMS {ev.rms_pct:.3g} % (gain {ev.gain_pct:+.1f} % against the "
                        f"baseline, {ev.gain_vs_richer_pct:+.1f} % against the best rate-independent model, removes "
