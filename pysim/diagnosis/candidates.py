@@ -307,12 +307,28 @@ class CandidateFitter:
     def rate_dependence(self, base: Family, order: int | None = None) -> Family:
         """A lag (``order`` 1) or a second-order stage (2) after the hysteresis; ``None``: the
         order by BIC on the searched rows (in sample; :func:`~pysim.diagnosis.diagnose` compares
-        both orders out of sample instead)."""
+        both orders out of sample instead).  Only the order asked for is searched."""
         if order not in (None, 1, 2):
             raise DiagnosisError(f"the order of a rate-dependence stage is 1 or 2, not {order!r}")
         T = self.T
         rows = self.search_rows.stop - self.search_rows.start
-        fs = 1.0 / T
+        lag = self._lag_search(base) if order in (None, 1) else None
+        resonance = self._resonance_search(base) if order in (None, 2) else None
+        if order == 2 or (order is None and _bic(resonance[2], rows, 2) < _bic(lag[1], rows, 1)):
+            f2, z2, _ = resonance
+            return self._with(base, "rate_dependence",
+                              parameters={"order": 2, "natural_frequency_hz": f2, "damping_ratio": z2},
+                              stages={"resonance_hz": f2, "damping_ratio": z2},
+                              transform=OutputStages([tustin_second_order(f2, z2, T)]))
+        tau = lag[0]
+        return self._with(base, "rate_dependence", parameters={"order": 1, "time_constant_s": tau},
+                          stages={"lag_time_constant_s": tau},
+                          transform=OutputStages([tustin_first_order(tau, T)]))
+
+    def _lag_search(self, base: Family) -> tuple:
+        """``(time_constant_s, sse)`` of the best first-order lag after ``base``."""
+        T = self.T
+        rows = self.search_rows.stop - self.search_rows.start
         log_tau = np.linspace(0.0, math.log(max(2.0, rows / 20.0)), 14)
 
         def first(x):
@@ -323,7 +339,13 @@ class CandidateFitter:
         bounds = (log_tau[max(i - 1, 0)], log_tau[min(i + 1, log_tau.size - 1)])
         refined = scipy.optimize.minimize_scalar(first, bounds=bounds, method="bounded", options={"xatol": 2e-3})
         x1, sse1 = (refined.x, refined.fun) if refined.fun < scores[i] else (log_tau[i], scores[i])
+        return math.exp(x1) * T, sse1
 
+    def _resonance_search(self, base: Family) -> tuple:
+        """``(natural_frequency_hz, damping_ratio, sse)`` of the best second-order stage after ``base``."""
+        T = self.T
+        rows = self.search_rows.stop - self.search_rows.start
+        fs = 1.0 / T
         log_f = np.linspace(math.log(max(fs / 3000.0, 20.0 * fs / rows)), math.log(fs / 3.0), 10)
         log_z = np.log([0.05, 0.15, 0.35, 0.7, 1.2])
         z_range = (math.log(0.005), math.log(5.0))
@@ -347,15 +369,7 @@ class CandidateFitter:
         if refined.fun < sse2:
             sse2, (a, b) = refined.fun, refined.x
         f2, z2 = clip((a, b))
-        if order == 2 or (order is None and _bic(sse2, rows, 2) < _bic(sse1, rows, 1)):
-            return self._with(base, "rate_dependence",
-                              parameters={"order": 2, "natural_frequency_hz": f2, "damping_ratio": z2},
-                              stages={"resonance_hz": f2, "damping_ratio": z2},
-                              transform=OutputStages([tustin_second_order(f2, z2, T)]))
-        tau = math.exp(x1) * T
-        return self._with(base, "rate_dependence", parameters={"order": 1, "time_constant_s": tau},
-                          stages={"lag_time_constant_s": tau},
-                          transform=OutputStages([tustin_first_order(tau, T)]))
+        return f2, z2, sse2
 
     def delay(self, base: Family) -> Family:
         A = self._design(base)

@@ -853,7 +853,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     except IdentificationError:
         # the record cannot support more operators: the baseline is the richest model it supports
         richer = _evaluate(fitter, baseline.fit.family, baseline.fit, folds, character, y, mask)
-    rate_independent = richer if richer.mse_um2 < baseline.mse_um2 - NOISE_FRACTION * 0.0 else baseline
+    rate_independent = richer if richer.mse_um2 < baseline.mse_um2 else baseline
     base_family = rate_independent.fit.family
     candidates = {}
     for cause in EFFECTS:
@@ -917,8 +917,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         ev.gain_vs_richer_pct = 100.0 * (1.0 - ev.rms_um / math.sqrt(ref_mse)) if ref_mse > 0 else 0.0
         ev.excess_over_noise = (ref_mse - ev.mse_um2) / noise**2 if noise > 0 else 0.0
     complexity = {c: ev.fit.complexity for c, ev in candidates.items()}
-    reference = richer if richer.mse_um2 < baseline.mse_um2 else baseline
-    consistent = {c: removal_holds(y, reference.cv_prediction_um, ev.cv_prediction_um)
+    consistent = {c: removal_holds(y, rate_independent.cv_prediction_um, ev.cv_prediction_um)
                   for c, ev in candidates.items()}
     verdict = decide({c: ev.mse_um2 for c, ev in candidates.items()}, baseline.mse_um2, richer.mse_um2,
                      noise, complexity, consistent)

@@ -26,7 +26,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from pysim.core.fileio import staged_directory
-from pysim.diagnosis.diagnose import MIN_GAIN_PCT, NEAR_NOISE_FRACTION, NOISE_FRACTION, Diagnosis
+from pysim.diagnosis.diagnose import (MIN_GAIN_PCT, NEAR_NOISE_BATCHES, NEAR_NOISE_FRACTION, NEAR_NOISE_T,
+                                      NOISE_FRACTION, Diagnosis)
 from pysim.diagnosis.residuals import binned_mean, cross_correlation, spectrum, time_since_change
 
 BASE_COLOUR, EXTENDED_COLOUR, MEASURED_COLOUR = "tab:red", "tab:blue", "black"
@@ -327,7 +328,8 @@ def summary_markdown(d: Diagnosis) -> str:
         f"- A candidate is significant when it removes at least {NOISE_FRACTION} σ² of mean-square error and "
         f"{MIN_GAIN_PCT:.0f} % of the RMS error against the baseline *and* the richer rate-independent model "
         f"-- or, near the noise, at least {NEAR_NOISE_FRACTION} σ² and half of what the better of them leaves "
-        f"above the noise, with a removal that holds across the record (batch means, 3 standard errors).",
+        f"above the noise, with a removal that holds across the record ({NEAR_NOISE_BATCHES} batch means, "
+        f"{NEAR_NOISE_T:g} standard errors).",
         "",
     ]
     if d.validation:
