@@ -297,6 +297,65 @@ def test_a_lag_seen_on_one_sine_is_fitted_as_a_lag_not_a_resonance():
     assert rms["lag"] < 0.5 * rms["plain"], rms
 
 
+def _validated(pair):
+    train, other = pair.train, pair.validation
+    return diagnose(train.voltage_V, train.displacement_um, train.sample_rate_hz,
+                    validate=(other.voltage_V, other.displacement_um, other.sample_rate_hz))
+
+
+def test_a_lag_tied_with_a_lowpass_before_the_hysteresis_is_told_apart_by_the_second_records_own_fit():
+    """Pair 137 again, with its chirp as the second record.  On the sine a lag after the hysteresis,
+    a low-pass before it and a delay tie; the lag fitted there (46 ms) predicts the chirp worse than
+    the low-pass (48 ms) does, so scoring the first record's models on the chirp named the low-pass.
+    Fitted on the chirp itself, the lag's structure is the one that reaches the noise: the second
+    record rules the others out and the lag is named alone."""
+    import independent_records
+
+    d = _validated(independent_records.make_pair(137))
+    assert {"rate_dependence", "rate_dependent_hysteresis"} <= set(d.cross_validation_causes)
+    assert d.causes == ("rate_dependence",), d.why
+    assert "ruled out there" in d.why and "rate_dependent_hysteresis" in d.validation["note"]
+
+
+def test_a_resonance_near_the_sample_rate_is_told_from_a_delay_by_its_excitation():
+    """Independent pair 89: a second-order stage at a third of the sample rate (1.67 kHz at 5 kHz,
+    ζ 0.8, simulated finely by the independent generator) after a plant of 26 operators off the eq. 13
+    grid.  Below fs/20 it is a 0.75-sample delay: the records (steps, a sine) tie it with a delay and
+    a low-pass before the hysteresis.  The excitation written for the set has to reach where the
+    stage shows its shape, and the resonance search has to reach its corner (the bilinear transform
+    puts a continuous fs/3 at 0.26 fs, so a search stopped at fs/3 could not): played on the same
+    actuator (another noise draw), the record it gives names the stage."""
+    import independent_records
+
+    pair = independent_records.make_pair(89)
+    assert pair.truth.effect == "rate_dependence" and pair.truth.effect_parameters["order"] == 2
+    d = _validated(pair)
+    assert "rate_dependence" in d.causes and len(d.causes) > 1 and d.excitation is not None, d.why
+    played = independent_records.respond(pair, d.excitation, noise_seed=89)
+    again = diagnose(played.voltage_V, played.displacement_um, played.sample_rate_hz)
+    assert again.cause == "rate_dependence", again.why
+    assert again.candidates["rate_dependence"].fit.parameters["order"] == 2
+
+
+def test_a_resonance_that_only_ties_a_fraction_of_a_sample_delay_does_not_displace_it():
+    """Independent pair 115: a 0.21-sample delay at 2 kHz.  A resonance near the sample rate
+    (ζ 0.64) fits both records as well as the delay does, within the tie margin; named first, it
+    predicted a third record of the actuator worse than the plain fit (its gain near Nyquist rings
+    on steps).  Among ties the one with fewer parameters is named unless the other's advantage holds
+    on both records, and the extended model must predict the third record better than the plain fit."""
+    import independent_records
+
+    pair = independent_records.make_pair(115)
+    assert pair.truth.effect == "delay"
+    d = _validated(pair)
+    assert d.cause == "delay", d.why
+    test = pair.test
+    part = slice(test.settle_samples, None)
+    rms = {label: float(np.sqrt(np.mean((model.simulate(test.voltage_V)[part] - test.clean_um[part]) ** 2)))
+           for label, model in (("plain", d.baseline.fit.model), ("extended", d.extended.fit.model))}
+    assert rms["extended"] < rms["plain"], rms
+
+
 def slew_limited(plant, v, rate_V_per_ms):
     """The plant behind an amplifier that follows the command at most at ``rate_V_per_ms``."""
     step = rate_V_per_ms * 1e3 * T
@@ -435,6 +494,12 @@ def test_excitation_parts_hold_what_they_promise():
     freqs = np.fft.rfftfreq(sines.size, 1e-3)
     top = freqs[np.argsort(spectrum)[-200:]]
     assert top.max() / max(top.min(), 1e-9) > 8
+    # ... up to a fifth of the sample rate, where a stage with its corner above fs/20 shows its shape; the
+    # fast ones small (a third of the large ones' amplitude), so an amplifier's slew limit does not bite
+    fast = np.abs(np.fft.rfft(sines - sines.mean()))[freqs > 150.0]
+    assert freqs[freqs > 150.0][np.argmax(fast)] == pytest.approx(200.0, rel=0.02)
+    near = (freqs > 48.0) & (freqs < 52.0)                                 # the fastest large burst, fs/20
+    assert fast.max() < 0.5 * spectrum[near].max()
 
 
 def test_excitation_refuses_a_bad_range():
@@ -525,6 +590,13 @@ def test_decide_follows_its_rules():
     assert d["cause"] == "unexplained" and d["explained_share"] == pytest.approx(10 / 29)
     # the residual far above the noise and nothing significant: unexplained too
     assert decide({"creep": 30.0}, 30.0, 30.0, s, {})["cause"] == "unexplained"
+    # among ties the simpler one is named first, unless the better one's advantage holds across the record
+    tied = ({"delay": 2.1, "rate_dependence": 2.0}, 30.0, 30.0, s, {"delay": 1, "rate_dependence": 2})
+    assert decide(*tied)["causes"] == ("delay", "rate_dependence")
+    assert decide(*tied, outranks=lambda a, b: False)["causes"] == ("delay", "rate_dependence")
+    asked = []
+    d = decide(*tied, outranks=lambda a, b: asked.append((a, b)) or True)
+    assert d["causes"] == ("rate_dependence", "delay") and asked == [("rate_dependence", "delay")]
 
 
 def test_an_effect_near_the_noise_is_named_only_when_its_removal_holds_across_the_record():

@@ -346,7 +346,7 @@ class CandidateFitter:
         T = self.T
         rows = self.search_rows.stop - self.search_rows.start
         fs = 1.0 / T
-        log_f = np.linspace(math.log(max(fs / 3000.0, 20.0 * fs / rows)), math.log(fs / 3.0), 10)
+        log_f = np.linspace(math.log(max(fs / 3000.0, 20.0 * fs / rows)), math.log(fs), 11)
         log_z = np.log([0.05, 0.15, 0.35, 0.7, 1.2])
         z_range = (math.log(0.005), math.log(5.0))
 

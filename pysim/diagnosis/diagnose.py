@@ -538,6 +538,63 @@ def _evaluate(fitter, family, fit, folds, character, y, mask) -> Evaluation:
     return ev
 
 
+def _runner(fitter: CandidateFitter, folds, character, y, mask):
+    """``run(family)``: fit ``family`` on the fitter's record (its initial state estimated with the
+    effect's parameters, for an extension) and cross-validate it over ``folds``."""
+    def run(family):
+        result = fitter.fit(family)
+        if family.cause not in ("baseline", "richer"):
+            family, result = fitter.with_estimated_state(family, result)
+        fit = fitter.finish(family, result)
+        return _evaluate(fitter, family, fit, folds, character, y, mask)
+    return run
+
+
+def fit_candidates(fitter: CandidateFitter, run, base_family: Family, causes, creep_score=None) -> dict:
+    """Cause → :class:`Evaluation` of its extension of ``base_family`` on the fitter's record.
+
+    A cause with two structures keeps the better out of sample: a lag or a
+    resonance, a trend of degree 1 or 2 (the quadratic only if it cuts the
+    error by a fifth), creep driven by the input or by the displacement
+    (``creep_score(evaluation)``, default the cross-validated MSE).  A cause
+    the record cannot support is left out.
+    """
+    candidates = {}
+    for cause in causes:
+        try:
+            if cause == "rate_dependence":
+                # the order out of sample: on one sine a lag and a resonance fit the same phase, and BIC
+                # in sample takes the resonance for a trace of noise (independent seed 137: a 50 ms lag
+                # on a sine became a 2.2 Hz resonance that predicts a chirp worse than the plain fit)
+                options = []
+                for order in (1, 2):
+                    try:
+                        options.append(run(fitter.rate_dependence(base_family, order)))
+                    except (IdentificationError, DiagnosisError):
+                        pass
+                if not options:
+                    continue
+                ev = min(options, key=lambda option: option.mse_um2)       # a tie keeps the lag
+            elif cause == "drift":
+                options = [run(fitter.drift(base_family, degree)) for degree in (1, 2)]
+                # the quadratic must extrapolate clearly better than the line
+                ev = options[1] if options[1].mse_um2 < 0.8 * options[0].mse_um2 else options[0]
+            elif cause == "creep":
+                # creep driven by the input or by the displacement: the better one out of sample
+                options = [run(fitter.creep(base_family))]
+                try:
+                    options.append(run(fitter.displacement_creep(base_family)))
+                except (IdentificationError, DiagnosisError):
+                    pass
+                ev = min(options, key=creep_score or (lambda option: option.mse_um2))
+            else:
+                ev = run(fitter.family(cause, base_family))
+        except (IdentificationError, DiagnosisError):
+            continue
+        candidates[cause] = ev
+    return candidates
+
+
 # ------------------------------------------------------------ decision
 
 #: What "outside the catalogue" can be: the catalogue's effects act on a rate-independent MPI
@@ -548,7 +605,7 @@ _OUTSIDE = (" (an effect it does not hold, or a hysteresis that no MPI model can
 
 
 def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um: float, complexity: dict,
-           consistent: dict | None = None):
+           consistent: dict | None = None, outranks=None):
     """Name the cause from out-of-sample mean-square errors (µm²).
 
     Parameters
@@ -565,6 +622,12 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
         Candidate cause → whether its removal holds across the record
         (:func:`removal_holds`); given, an effect near the noise can be
         significant by the ``NEAR_NOISE_FRACTION`` rule.
+    outranks : callable, optional
+        ``outranks(a, b)``: whether candidate ``a``'s lower error than ``b``'s
+        is more than the noise can make (:func:`advantage_holds`).
+        Among ties Occam's razor names the candidate with the fewest effect
+        parameters -- unless the best candidate outranks it: then the best
+        is named first (the set stays).
 
     Returns
     -------
@@ -613,6 +676,9 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
                         f"error above the noise ({excess / s2:.3g} σ²): most of the residual is outside "
                         f"the catalogue{_OUTSIDE}"}
     winner = min(ties, key=lambda c: (complexity.get(c, 0), mse[c])) if len(ties) > 1 else best
+    if winner != best and outranks is not None and outranks(best, winner):
+        # the simpler one is only as good within the margin, and the data say it is not
+        winner = best
     causes = tuple([winner] + [c for c in ties if c != winner])
     return {"cause": winner, "causes": causes, "significant": significant, "best": best,
             "explained_share": share, "text": ""}
@@ -645,6 +711,45 @@ def removal_holds(y, reference_um, candidate_um, n_batches: int = NEAR_NOISE_BAT
     means = np.array([chunk.mean() for chunk in np.array_split(d, n_batches)])
     spread = means.std(ddof=1) / math.sqrt(n_batches)
     return bool(means.mean() > t_min * spread)
+
+
+def advantage_holds(y, reference_um, candidate_um, t_min: float = NEAR_NOISE_T) -> bool:
+    """Whether a candidate's lower squared error than a reference's is more than the noise can make.
+
+    For ordering candidates that both explain a record (not for naming an
+    effect at all): the per-sample difference of the squared errors may sit
+    in a few stretches -- the fast bursts of an excitation, the end of a chirp
+    -- which is where two dynamics differ, so batch means (:func:`removal_holds`)
+    would call it uneven and ignore it.  Its mean is compared instead with a
+    standard error that allows for correlated noise: the Newey-West estimate
+    with Bartlett weights over ``√N`` lags.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> k = np.arange(8000)
+    >>> burst = np.where(k > 7000, np.sin(k / 3.0), 0.0)       # they differ only in the last 1000 samples
+    >>> y = burst + rng.normal(0, 1.0, k.size)
+    >>> advantage_holds(y, np.zeros(k.size), burst), removal_holds(y, np.zeros(k.size), burst)
+    (True, False)
+    >>> advantage_holds(y, burst, np.zeros(k.size))
+    False
+    """
+    y, a, b = (np.asarray(x, dtype=float) for x in (y, reference_um, candidate_um))
+    both = np.isfinite(a) & np.isfinite(b)
+    d = ((y - a) ** 2 - (y - b) ** 2)[both]
+    n = d.size
+    if n < 100:
+        return False
+    e = d - d.mean()
+    lags = int(math.ceil(math.sqrt(n)))
+    spectrum = np.abs(np.fft.rfft(e, 2 * n)) ** 2            # autocovariances by one FFT
+    acov = np.fft.irfft(spectrum)[: lags + 1] / n
+    weights = 1.0 - np.arange(1, lags + 1) / (lags + 1.0)
+    long_run = acov[0] + 2.0 * float(np.sum(weights * acov[1:]))
+    if not long_run > 0:
+        return bool(d.mean() > 0)
+    return bool(d.mean() > t_min * math.sqrt(long_run / n))
 
 
 def _reasons(candidates: dict, stats: dict) -> dict:
@@ -837,12 +942,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         if swapped is not None:
             return swapped
 
-    def run(family):
-        result = fitter.fit(family)
-        if family.cause not in ("baseline", "richer"):
-            family, result = fitter.with_estimated_state(family, result)
-        fit = fitter.finish(family, result)
-        return _evaluate(fitter, family, fit, folds, character, y, mask)
+    run = _runner(fitter, folds, character, y, mask)
 
     try:
         baseline = run(fitter.base("baseline"))
@@ -855,47 +955,18 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         richer = _evaluate(fitter, baseline.fit.family, baseline.fit, folds, character, y, mask)
     rate_independent = richer if richer.mse_um2 < baseline.mse_um2 else baseline
     base_family = rate_independent.fit.family
-    candidates = {}
-    for cause in EFFECTS:
-        try:
-            if cause == "rate_dependence":
-                # the order out of sample: on one sine a lag and a resonance fit the same phase, and BIC
-                # in sample takes the resonance for a trace of noise (independent seed 137: a 50 ms lag
-                # on a sine became a 2.2 Hz resonance that predicts a chirp worse than the plain fit)
-                options = []
-                for order in (1, 2):
-                    try:
-                        options.append(run(fitter.rate_dependence(base_family, order)))
-                    except (IdentificationError, DiagnosisError):
-                        pass
-                if not options:
-                    continue
-                ev = min(options, key=lambda option: option.mse_um2)       # a tie keeps the lag
-            elif cause == "drift":
-                options = [run(fitter.drift(base_family, degree)) for degree in (1, 2)]
-                # the quadratic must extrapolate clearly better than the line
-                ev = options[1] if options[1].mse_um2 < 0.8 * options[0].mse_um2 else options[0]
-            elif cause == "creep":
-                # creep driven by the input or by the displacement: the better one out of sample
-                options = [run(fitter.creep(base_family))]
-                try:
-                    options.append(run(fitter.displacement_creep(base_family)))
-                except (IdentificationError, DiagnosisError):
-                    pass
-                if validate is not None and len(options) > 1:
-                    # two structures of one cause: the second record is held-out data too
-                    train_range = (float(v.min()), float(v.max()))
-                    for option in options:      # kept: the second record's table scores them once
-                        option.validation = score_on_record(option.fit, v2, y2, T, train_range,
-                                                            train_voltage_V=v)
-                    ev = options[int(np.argmin([o.mse_um2 * o.validation["mse_um2"] for o in options]))]
-                else:
-                    ev = min(options, key=lambda option: option.mse_um2)
-            else:
-                ev = run(fitter.family(cause, base_family))
-        except (IdentificationError, DiagnosisError):
-            continue
-        candidates[cause] = ev
+    creep_score = None
+    if validate is not None:
+        train_range = (float(v.min()), float(v.max()))
+
+        def creep_score(option):
+            # two structures of one cause: the second record is held-out data too (the score is kept:
+            # the second record's table scores each model once)
+            if option.validation is None:
+                option.validation = score_on_record(option.fit, v2, y2, T, train_range, train_voltage_V=v)
+            return option.mse_um2 * option.validation["mse_um2"]
+
+    candidates = fit_candidates(fitter, run, base_family, EFFECTS, creep_score)
 
     step = quantum(y)
     shaped_on_second = []
@@ -919,8 +990,12 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     complexity = {c: ev.fit.complexity for c, ev in candidates.items()}
     consistent = {c: removal_holds(y, rate_independent.cv_prediction_um, ev.cv_prediction_um)
                   for c, ev in candidates.items()}
+
+    def outranks(a, b):
+        return advantage_holds(y, candidates[b].cv_prediction_um, candidates[a].cv_prediction_um)
+
     verdict = decide({c: ev.mse_um2 for c, ev in candidates.items()}, baseline.mse_um2, richer.mse_um2,
-                     noise, complexity, consistent)
+                     noise, complexity, consistent, outranks)
     for c, ev in candidates.items():
         ev.significant = verdict["significant"][c]
     if unidentified and verdict["cause"] in ("unexplained", "drift"):
@@ -933,7 +1008,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     validation = None
     if validate is not None:
         validation, v_verdict = _validate(fitter, baseline, richer, candidates, v, v2, y2, complexity,
-                                          cv_verdict, noise)
+                                          cv_verdict, noise, outranks)
         validation["source"] = validate_source
         if shaped_on_second:
             validation["note"] += (f"; the shape of {' and '.join(shaped_on_second)} was searched on the second "
@@ -946,6 +1021,25 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                                    f"hysteresis ({unidentified})")
         else:
             verdict = v_verdict
+            # a tied set (on the second record, or on the first when the second names one of it) may be
+            # told apart by the second record's own fit of each cause's structure
+            tied = (verdict["causes"] if len(verdict["causes"]) > 1 else
+                    cv_verdict["causes"] if len(cv_verdict["causes"]) > 1 and verdict["cause"] in cv_verdict["causes"]
+                    else ())
+            told = _told_apart_by_second_record(fitter, tied, v2, y2) if tied else None
+            if told is not None:
+                kept, on_second = told
+                if verdict["cause"] in kept:
+                    kept = [verdict["cause"]] + [c for c in kept if c != verdict["cause"]]
+                out = [c for c in tied if c not in kept]
+                remark = (f"; the records tie {', '.join(tied)}: fitted on the second record itself, "
+                          + ", ".join(f"{c} leaves {on_second[c]:.3g} σ²" for c in tied if c in on_second)
+                          + f", and {' and '.join(out)} {'is' if len(out) == 1 else 'are'} ruled out there "
+                          f"({'its error is' if len(out) == 1 else 'their errors are'} higher by more than the "
+                          "noise margin, or the difference holds across that record)")
+                verdict = dict(verdict, cause=kept[0], causes=tuple(kept), best=kept[0], told_apart=True)
+                validation.update(cause=kept[0], causes=list(kept), verdict_by="second record",
+                                  remark=validation["remark"] + remark, note=validation["note"] + remark)
 
     cause, causes = verdict["cause"], verdict["causes"]
     held = split.heldout
@@ -1004,7 +1098,7 @@ class _RolesStand(Exception):
     """The second record cannot take the first one's role (it cannot identify the hysteresis)."""
 
 
-def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_verdict, noise1):
+def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_verdict, noise1, outranks=None):
     """Score every model on the second record; the verdict by that record.
 
     A second record on which the better rate-independent model already
@@ -1024,7 +1118,12 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
     could not show, such as a slew limit, and a fast second one shows plainly).
     A candidate whose cross-validated error on the first record exceeds the
     better rate-independent model's by ``NOISE_FRACTION`` σ² or more is
-    contradicted there and cannot be named by the second record.
+    contradicted there and cannot be named by the second record.  Among
+    candidates that tie on both records, Occam's razor names the one with the
+    fewest effect parameters, unless the best one's lower error holds across
+    both records (``outranks(a, b)`` on the first, :func:`advantage_holds`
+    on the second): a resonance near the sample rate ties with a fraction of a
+    sample's delay, and predicts steps worse.
     """
     train_range = (float(v1.min()), float(v1.max()))
     for ev in [baseline, richer, *candidates.values()]:
@@ -1050,7 +1149,12 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
             score = {c: (candidates[c].mse_um2 / ref_cv) * (mse[c] / ref_val) for c in both}
             best = min(both, key=score.get)
             ties = sorted((c for c in both if score[c] <= (1.0 + 2.0 * TIE_FRACTION) * score[best]), key=score.get)
-            verdict = dict(verdict, cause=best, causes=tuple(ties), best=best)
+            winner = min(ties, key=lambda c: (complexity.get(c, 0), score[c]))
+            if winner != best and outranks is not None and outranks(best, winner) and advantage_holds(
+                    y2, candidates[winner].validation["prediction_um"], candidates[best].validation["prediction_um"]):
+                winner = best
+            ties = [winner] + [c for c in ties if c != winner]
+            verdict = dict(verdict, cause=winner, causes=tuple(ties), best=best)
     standing, by = "", "second record"
     excess2 = ref_val - noise2**2
     decisive = (verdict["cause"] in EFFECTS and excess2 >= UNEXPLAINED_LEVEL * noise2**2
@@ -1171,6 +1275,79 @@ def _dynamics_where_they_show(fitter, run, reference, candidates, v1, v2, y2, no
     return replaced
 
 
+def _told_apart_by_second_record(fitter: CandidateFitter, causes, v2, y2):
+    """The causes of a tied set that the second record, diagnosed on its own, does not rule out.
+
+    Every model in the set is fitted on the second record too -- the
+    rate-independent part and the effect's shape, cross-validated the same
+    way -- so the comparison is between the causes' *structures*, not between
+    parameters a record that could not tell them apart has fitted (independent
+    seed 137: a 50 ms lag after the hysteresis on one sine from an unknown
+    history ties with a 48 ms low-pass before it; the lag fitted there is
+    46 ms, and the low-pass predicts the chirp of the second record better --
+    fitted on the chirp, the lag is 49.96 ms and leaves 0.98 σ² against the
+    low-pass's 1.28 σ²).  A cause is ruled out when the second record names
+    an effect of the set, the cause falls outside its ties, and its error
+    exceeds the best one's by the noise margin (``NOISE_FRACTION`` σ²) or the
+    best one's lower error is more than the noise can make
+    (:func:`advantage_holds`).
+
+    Returns ``(kept, mse_sigma2)``: the causes kept, best first, and each
+    cause's cross-validated error on the second record in its noise
+    variances; None when the second record cannot be diagnosed or rules
+    nothing out.
+    """
+    try:
+        second = CandidateFitter(v2, y2, fitter.T, n_operators=fitter.n, model=fitter.kind,
+                                 operator=fitter.operator)
+    except IdentificationError:
+        return None
+    second.period_samples = input_period(v2)
+    folds = make_folds(v2, settle=int(max(SETTLE_MIN_SAMPLES, SETTLE_FRACTION * v2.size)))
+    mask = np.zeros(v2.size, dtype=bool)
+    for _, scored in folds:
+        mask[scored] = True
+    run = _runner(second, folds, None, y2, mask)
+    try:
+        baseline = run(second.base("baseline"))
+    except IdentificationError:
+        return None
+    try:
+        richer = run(second.base("richer"))
+    except IdentificationError:
+        richer = baseline
+    reference = richer if richer.mse_um2 < baseline.mse_um2 else baseline
+    found = fit_candidates(second, run, reference.fit.family, causes)
+    if len(found) < 2:
+        return None
+    step = quantum(y2)
+    noise = min(noise_sigma(y2 - ev.prediction_um, step) for ev in [baseline, richer, *found.values()])
+    if not noise > 0:
+        return None
+
+    def holds(a, b):
+        return advantage_holds(y2, found[b].cv_prediction_um, found[a].cv_prediction_um)
+
+    verdict = decide({c: ev.mse_um2 for c, ev in found.items()}, baseline.mse_um2, richer.mse_um2, noise,
+                     {c: ev.fit.complexity for c, ev in found.items()},
+                     {c: removal_holds(y2, reference.cv_prediction_um, ev.cv_prediction_um)
+                      for c, ev in found.items()}, outranks=holds)
+    best = verdict["best"]
+    if verdict["cause"] not in found or best is None:
+        return None
+    margin = NOISE_FRACTION * noise**2
+
+    def ruled_out(c):
+        return c in found and c not in verdict["causes"] and (found[c].mse_um2 - found[best].mse_um2 >= margin
+                                                              or holds(best, c))
+
+    kept = [c for c in causes if not ruled_out(c)]
+    if len(kept) == len(list(causes)):
+        return None
+    kept.sort(key=lambda c: (c != verdict["cause"], found[c].mse_um2 if c in found else math.inf))
+    return kept, {c: ev.mse_um2 / noise**2 for c, ev in found.items()}
+
+
 def _rate_independent_excess(fitter, v2, y2) -> float:
     """Mean-square error (in σ² above 1) that the richer rate-independent model
     leaves on the second record when fitted to that record itself.
@@ -1216,8 +1393,11 @@ def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -
         if validation is not None:
             row = validation["table"][cause]
             text = (f"{cause} lowers the error on the second record significantly"
-                    + (" and, of the candidates that do so on both records, the most on both together"
-                       if ev.significant else "") + ": second record RMS "
+                    + ("" if not ev.significant or verdict.get("told_apart") else
+                       " and, of the candidates that do so on both records, the most on both together"
+                       if verdict.get("best") in (None, cause) else
+                       " and, of the candidates that do so on both records and tie, the one with the fewest "
+                       "parameters") + ": second record RMS "
                     f"{validation['table']['baseline']['rms_pct']:.3g} % → {row['rms_pct']:.3g} % of range (richer "
                     f"rate-independent model {validation['table']['richer']['rms_pct']:.3g} %), cross-validated "
                     f"{baseline.rms_pct:.3g} % → {ev.rms_pct:.3g} %")

@@ -8,8 +8,12 @@ the actuator's range, made of the parts that pull them apart:
 - a **slow full-range cycle** at the start and the same at the end: the
   hysteresis is identified on it, and a drift shows as the gap between the two;
 - **sines at several frequencies** (from a few hundred samples per period to
-  about twenty) at a large and a small amplitude: a delay's phase grows in
-  proportion to the frequency while a lag's saturates and its amplitude drops;
+  about twenty) at a large and a small amplitude, and at the small amplitude
+  on up to five samples per period: a delay's phase grows in proportion to
+  the frequency while a lag's saturates and its amplitude drops (a stage
+  whose corner lies above a twentieth of the sample rate looks like a
+  fraction of a sample's delay below it, and shows its own shape only near
+  its corner; small, so that an amplifier's slew limit does not bite);
   a low-pass before the hysteresis changes the loop's *shape* with frequency
   and amplitude, a lag after it only scales and shifts it; a slew limit only
   bites on the large, fast ones;
@@ -109,10 +113,11 @@ def separating_excitation(causes, voltage_range_V, sample_rate_hz: float, n_samp
 
 
 def _sines(n, fs, lo, span, mid, level):
-    """Bursts of sines at five frequencies (fs/400 … fs/20), large then small amplitude."""
-    frequencies = np.geomspace(fs / 400.0, fs / 20.0, 5)
-    amplitudes = (0.45 * span, 0.15 * span)
-    bursts = [(f, a) for f in frequencies for a in amplitudes]
+    """Bursts of sines: large ones at five frequencies (fs/400 … fs/20), then small ones at seven
+    (fs/400 … fs/5)."""
+    large, small = 0.45 * span, 0.15 * span
+    bursts = ([(f, large) for f in np.geomspace(fs / 400.0, fs / 20.0, 5)]
+              + [(f, small) for f in np.geomspace(fs / 400.0, fs / 5.0, 7)])
     each = max(n // len(bursts), 20)
     out = []
     for f, a in bursts:
