@@ -1032,11 +1032,12 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 if verdict["cause"] in kept:
                     kept = [verdict["cause"]] + [c for c in kept if c != verdict["cause"]]
                 out = [c for c in tied if c not in kept]
-                remark = (f"; the records tie {', '.join(tied)}: fitted on the second record itself, "
+                remark = (f"; {', '.join(tied)} tie as the models fitted on the first record; fitted on the "
+                          "second record itself, "
                           + ", ".join(f"{c} leaves {on_second[c]:.3g} σ²" for c in tied if c in on_second)
                           + f", and {' and '.join(out)} {'is' if len(out) == 1 else 'are'} ruled out there "
-                          f"({'its error is' if len(out) == 1 else 'their errors are'} higher by more than the "
-                          "noise margin, or the difference holds across that record)")
+                          f"({'its error is' if len(out) == 1 else 'their errors are'} higher than the best one's "
+                          "by more than the noise margin, or by more than the noise can make)")
                 verdict = dict(verdict, cause=kept[0], causes=tuple(kept), best=kept[0], told_apart=True)
                 validation.update(cause=kept[0], causes=list(kept), verdict_by="second record",
                                   remark=validation["remark"] + remark, note=validation["note"] + remark)
