@@ -538,6 +538,29 @@ def _evaluate(fitter, family, fit, folds, character, y, mask) -> Evaluation:
     return ev
 
 
+def _record_folds(voltage_V):
+    """The blocked cross-validation folds of a record (its start left to settle) and the mask of
+    the samples they score."""
+    v = np.asarray(voltage_V, dtype=float)
+    folds = make_folds(v, settle=int(max(SETTLE_MIN_SAMPLES, SETTLE_FRACTION * v.size)))
+    mask = np.zeros(v.size, dtype=bool)
+    for _, scored in folds:
+        mask[scored] = True
+    return folds, mask
+
+
+def _rate_independent_models(fitter: CandidateFitter, run, folds, character, y, mask) -> tuple:
+    """``(baseline, richer)`` evaluated on the fitter's record; raises IdentificationError when
+    the record cannot support the baseline."""
+    baseline = run(fitter.base("baseline"))
+    try:
+        richer = run(fitter.base("richer"))
+    except IdentificationError:
+        # the record cannot support more operators: the baseline is the richest model it supports
+        richer = _evaluate(fitter, baseline.fit.family, baseline.fit, folds, character, y, mask)
+    return baseline, richer
+
+
 def _runner(fitter: CandidateFitter, folds, character, y, mask):
     """``run(family)``: fit ``family`` on the fitter's record (its initial state estimated with the
     effect's parameters, for an extension) and cross-validate it over ``folds``."""
@@ -675,13 +698,29 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
                 "text": f"the best candidate, {best}, removes only {100 * share:.0f} % of the mean-square "
                         f"error above the noise ({excess / s2:.3g} σ²): most of the residual is outside "
                         f"the catalogue{_OUTSIDE}"}
-    winner = min(ties, key=lambda c: (complexity.get(c, 0), mse[c])) if len(ties) > 1 else best
-    if winner != best and outranks is not None and outranks(best, winner):
-        # the simpler one is only as good within the margin, and the data say it is not
-        winner = best
+    winner = _simplest_unless_outranked(ties, best, complexity, mse, outranks)
     causes = tuple([winner] + [c for c in ties if c != winner])
     return {"cause": winner, "causes": causes, "significant": significant, "best": best,
             "explained_share": share, "text": ""}
+
+
+def _simplest_unless_outranked(ties, best, complexity: dict, error: dict, outranks=None) -> str:
+    """Occam's razor among ``ties``: the fewest effect parameters (then the lower ``error``) --
+    unless ``outranks(best, simplest)``: the simpler one is only as good within the margin, and the
+    data say it is not."""
+    if len(ties) < 2:
+        return best
+    winner = min(ties, key=lambda c: (complexity.get(c, 0), error[c]))
+    if winner != best and outranks is not None and outranks(best, winner):
+        return best
+    return winner
+
+
+def _squared_error_gain(y, reference_um, candidate_um) -> np.ndarray:
+    """Per sample, the reference's squared error minus the candidate's, where both predict (not NaN)."""
+    y, a, b = (np.asarray(x, dtype=float) for x in (y, reference_um, candidate_um))
+    both = np.isfinite(a) & np.isfinite(b)
+    return ((y - a) ** 2 - (y - b) ** 2)[both]
 
 
 def removal_holds(y, reference_um, candidate_um, n_batches: int = NEAR_NOISE_BATCHES,
@@ -703,9 +742,7 @@ def removal_holds(y, reference_um, candidate_um, n_batches: int = NEAR_NOISE_BAT
     >>> removal_holds(y, np.sin(np.arange(4000) / 50), np.zeros(4000))
     False
     """
-    y, a, b = (np.asarray(x, dtype=float) for x in (y, reference_um, candidate_um))
-    both = np.isfinite(a) & np.isfinite(b)
-    d = ((y - a) ** 2 - (y - b) ** 2)[both]
+    d = _squared_error_gain(y, reference_um, candidate_um)
     if d.size < 10 * n_batches:
         return False
     means = np.array([chunk.mean() for chunk in np.array_split(d, n_batches)])
@@ -735,9 +772,7 @@ def advantage_holds(y, reference_um, candidate_um, t_min: float = NEAR_NOISE_T) 
     >>> advantage_holds(y, burst, np.zeros(k.size))
     False
     """
-    y, a, b = (np.asarray(x, dtype=float) for x in (y, reference_um, candidate_um))
-    both = np.isfinite(a) & np.isfinite(b)
-    d = ((y - a) ** 2 - (y - b) ** 2)[both]
+    d = _squared_error_gain(y, reference_um, candidate_um)
     n = d.size
     if n < 100:
         return False
@@ -910,10 +945,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     except IdentificationError as exc:
         raise DiagnosisError(f"{where}{exc}") from exc
     fitter.period_samples = split.period_samples
-    folds = make_folds(v, settle=int(max(SETTLE_MIN_SAMPLES, SETTLE_FRACTION * v.size)))
-    mask = np.zeros(v.size, dtype=bool)
-    for _, scored in folds:
-        mask[scored] = True
+    folds, mask = _record_folds(v)
     if np.count_nonzero(mask) < 100:
         raise DiagnosisError(f"{where}the input of every block leaves the range of the others: no sample can be "
                              "scored out of sample; record the range more than once")
@@ -945,14 +977,9 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     run = _runner(fitter, folds, character, y, mask)
 
     try:
-        baseline = run(fitter.base("baseline"))
+        baseline, richer = _rate_independent_models(fitter, run, folds, character, y, mask)
     except IdentificationError as exc:
         raise DiagnosisError(f"{where}{exc}") from exc
-    try:
-        richer = run(fitter.base("richer"))
-    except IdentificationError:
-        # the record cannot support more operators: the baseline is the richest model it supports
-        richer = _evaluate(fitter, baseline.fit.family, baseline.fit, folds, character, y, mask)
     rate_independent = richer if richer.mse_um2 < baseline.mse_um2 else baseline
     base_family = rate_independent.fit.family
     creep_score = None
@@ -1150,10 +1177,12 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
             score = {c: (candidates[c].mse_um2 / ref_cv) * (mse[c] / ref_val) for c in both}
             best = min(both, key=score.get)
             ties = sorted((c for c in both if score[c] <= (1.0 + 2.0 * TIE_FRACTION) * score[best]), key=score.get)
-            winner = min(ties, key=lambda c: (complexity.get(c, 0), score[c]))
-            if winner != best and outranks is not None and outranks(best, winner) and advantage_holds(
-                    y2, candidates[winner].validation["prediction_um"], candidates[best].validation["prediction_um"]):
-                winner = best
+
+            def on_both(a, b):
+                return outranks is not None and outranks(a, b) and advantage_holds(
+                    y2, candidates[b].validation["prediction_um"], candidates[a].validation["prediction_um"])
+
+            winner = _simplest_unless_outranked(ties, best, complexity, score, on_both)
             ties = [winner] + [c for c in ties if c != winner]
             verdict = dict(verdict, cause=winner, causes=tuple(ties), best=best)
     standing, by = "", "second record"
@@ -1304,19 +1333,12 @@ def _told_apart_by_second_record(fitter: CandidateFitter, causes, v2, y2):
     except IdentificationError:
         return None
     second.period_samples = input_period(v2)
-    folds = make_folds(v2, settle=int(max(SETTLE_MIN_SAMPLES, SETTLE_FRACTION * v2.size)))
-    mask = np.zeros(v2.size, dtype=bool)
-    for _, scored in folds:
-        mask[scored] = True
+    folds, mask = _record_folds(v2)
     run = _runner(second, folds, None, y2, mask)
     try:
-        baseline = run(second.base("baseline"))
+        baseline, richer = _rate_independent_models(second, run, folds, None, y2, mask)
     except IdentificationError:
         return None
-    try:
-        richer = run(second.base("richer"))
-    except IdentificationError:
-        richer = baseline
     reference = richer if richer.mse_um2 < baseline.mse_um2 else baseline
     found = fit_candidates(second, run, reference.fit.family, causes)
     if len(found) < 2:
