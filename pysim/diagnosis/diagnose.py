@@ -39,6 +39,15 @@ Procedure (``diagnose``):
    the best candidate removes less than ``UNEXPLAINED_SHARE`` of the residual
    above the noise, or no candidate is significant while the residual stays
    far above the noise, the verdict is ``unexplained``, with the evidence.
+   **Steps**: when nothing is named, the responses to steps into holds
+   (:func:`step_windows`) are predicted with each group of them left out of
+   the fit; a fast stage (a delay, a lag, a slew limit) may show only in the
+   few samples after large steps, which the median over the blocks never
+   weighs.  Where the better rate-independent model leaves at least
+   ``UNEXPLAINED_LEVEL`` σ² there, a candidate of ``DYNAMICS`` that removes
+   ``DECISIVE_SHARE`` of it, worsens no step and not the blocked score is
+   named (ties as above); a second record tests it on its own
+   rate-independent fit (:func:`_raised_on_own_hysteresis`).
 5. **Second record** (``validate=``): every model fitted on the first record is
    scored on a second record of the same actuator (its initial operator state,
    the free decay of its slow stage modes and the sensor offset and gain
@@ -66,6 +75,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.ndimage
 
 from pysim.core.metrics import error_measures
 from pysim.diagnosis.candidates import EFFECTS, CandidateFit, CandidateFitter, Family
@@ -99,6 +109,15 @@ UNEXPLAINED_LEVEL = 3.0
 #: least UNEXPLAINED_LEVEL noise variances and one cause removes at least this share of it.
 DECISIVE_SHARE = 0.75
 N_FOLDS = 5
+#: A step into a hold (:func:`step_windows`): the input moves this share of its span or more within
+#: STEP_RISE_SAMPLES samples, then stays within HOLD_SHARE of its span while the response settles.
+STEP_SHARE = 0.05
+STEP_RISE_SAMPLES = 3
+HOLD_SHARE = 0.01
+#: Dynamics whose shape shows in the response to a step (the ringing after an upward step, a lag,
+#: a delay, the ramp of a slew limit, an input low-pass), also on a second record that cannot
+#: identify the hysteresis itself.
+DYNAMICS = ("rate_dependence", "delay", "rate_dependent_hysteresis", "slew_limit")
 #: Samples at the start left out of fitting and scoring the extensions: their output
 #: stages start at rest, the actuator may not have been (the larger of the two).
 SETTLE_MIN_SAMPLES = 20
@@ -245,6 +264,8 @@ class Evaluation:
         RMS error (% of range) on the fastest blocks when trained on the slowest.
     validation : dict or None
         Scores on the second record (see :func:`pysim.diagnosis.validation.score_on_record`).
+    structures : list
+        Every structure of the cause that was evaluated (a lag and a resonance), this one among them.
     """
 
     fit: CandidateFit
@@ -260,6 +281,7 @@ class Evaluation:
     character: dict = field(default_factory=dict)
     validation: dict = None
     per_block_mse_um2: list = field(default_factory=list)
+    structures: list = field(default_factory=list, repr=False)
 
     @property
     def cause(self) -> str:
@@ -299,6 +321,11 @@ class Diagnosis:
         fitted in its turn, names one.
     swap_reason : str
         Why the roles swapped ("" when they did not).
+    steps : dict or None
+        When the responses to steps into holds named the cross-validated
+        cause (:func:`step_windows`): the number of windows and samples, the
+        mean-square error the rate-independent model leaves there above the
+        noise (σ²) and the share each qualifying candidate removes.
     baseline, extended, richer : Evaluation
     candidates : dict
         Cause → Evaluation.
@@ -330,6 +357,7 @@ class Diagnosis:
     start_excluded_samples: int = 0
     records_swapped: bool = False
     swap_reason: str = ""
+    steps: dict = None
 
     @property
     def gain_pct(self) -> float:
@@ -398,6 +426,7 @@ class Diagnosis:
                 "measured_gain_um_per_V": measured_gain,
                 "cross_validation_cause": self.cross_validation_cause,
                 "cross_validation_causes": list(self.cross_validation_causes),
+                "steps": self.steps,
                 "validation": self.validation,
                 "residual_statistics": _plain(self.statistics),
             },
@@ -538,11 +567,52 @@ def _evaluate(fitter, family, fit, folds, character, y, mask) -> Evaluation:
     return ev
 
 
+def _settle_samples(n_samples: int) -> int:
+    """Samples at the start of a record (and after an unseen step) left to settle."""
+    return int(max(SETTLE_MIN_SAMPLES, SETTLE_FRACTION * n_samples))
+
+
+def step_windows(voltage_V, window: int) -> list:
+    """The responses to steps into holds: ``(first, stop)`` sample ranges.
+
+    A step is a move of at least ``STEP_SHARE`` of the input's span within
+    ``STEP_RISE_SAMPLES`` samples, into a hold: the input then stays within
+    ``HOLD_SHARE`` of its span for ``window`` samples.  The range runs from
+    the start of the rise to the end of the hold's first ``window`` samples,
+    where a fast stage (a delay, a lag, a slew limit) shows in a few samples
+    that the median over cross-validation blocks never weighs.
+
+    Examples
+    --------
+    >>> v = np.repeat([0.0, 10.0, 2.0, 2.05], [300, 300, 300, 300])
+    >>> step_windows(v, 50)
+    [(297, 350), (597, 650)]
+    """
+    v = np.asarray(voltage_V, dtype=float)
+    span = float(np.ptp(v)) if v.size else 0.0
+    if not span > 0 or v.size < 2 * window or window < 1:
+        return []
+    # spread of the input over the next `window` samples, for every start
+    ahead_max = scipy.ndimage.maximum_filter1d(v, window, origin=-(window // 2))
+    ahead_min = scipy.ndimage.minimum_filter1d(v, window, origin=-(window // 2))
+    holds = (ahead_max - ahead_min) <= HOLD_SHARE * span
+    holds[v.size - window + 1:] = False
+    before = np.concatenate((np.full(STEP_RISE_SAMPLES, v[0]), v[:-STEP_RISE_SAMPLES]))
+    starts = np.flatnonzero(holds & (np.abs(v - before) >= STEP_SHARE * span))
+    windows, stop = [], 0
+    for k in starts:
+        first = max(int(k) - STEP_RISE_SAMPLES, 0)
+        if first >= stop:
+            stop = int(k) + window
+            windows.append((first, stop))
+    return windows
+
+
 def _record_folds(voltage_V):
     """The blocked cross-validation folds of a record (its start left to settle) and the mask of
     the samples they score."""
     v = np.asarray(voltage_V, dtype=float)
-    folds = make_folds(v, settle=int(max(SETTLE_MIN_SAMPLES, SETTLE_FRACTION * v.size)))
+    folds = make_folds(v, settle=_settle_samples(v.size))
     mask = np.zeros(v.size, dtype=bool)
     for _, scored in folds:
         mask[scored] = True
@@ -598,6 +668,7 @@ def fit_candidates(fitter: CandidateFitter, run, base_family: Family, causes, cr
                 if not options:
                     continue
                 ev = min(options, key=lambda option: option.mse_um2)       # a tie keeps the lag
+                ev.structures = options
             elif cause == "drift":
                 options = [run(fitter.drift(base_family, degree)) for degree in (1, 2)]
                 # the quadratic must extrapolate clearly better than the line
@@ -785,6 +856,94 @@ def advantage_holds(y, reference_um, candidate_um, t_min: float = NEAR_NOISE_T) 
     if not long_run > 0:
         return bool(d.mean() > 0)
     return bool(d.mean() > t_min * math.sqrt(long_run / n))
+
+
+def _step_predictions(fitter: CandidateFitter, family: Family, fallback_um, windows, settle: int, y):
+    """Predictions of ``family`` on the step ``windows``, each group of windows left out of its fit
+    (at most ``N_FOLDS`` groups, round robin; NaN outside the windows)."""
+    out = np.full(y.size, np.nan)
+    groups = [windows[j::N_FOLDS] for j in range(min(N_FOLDS, len(windows)))]
+    for group in groups:
+        keep = np.ones(y.size, dtype=bool)
+        keep[:settle] = False
+        for first, stop in group:
+            keep[first:stop] = False
+        try:
+            prediction = fitter.fit(family, np.flatnonzero(keep)).prediction_um
+        except IdentificationError:
+            prediction = fallback_um
+        for first, stop in group:
+            out[first:stop] = prediction[first:stop]
+    return out
+
+
+def _shown_by_steps(fitter: CandidateFitter, baseline, richer, candidates: dict, y, noise_um: float,
+                    complexity: dict):
+    """The verdict of the responses to steps into holds, or None when they show nothing.
+
+    The median over cross-validation blocks weighs what a record shows
+    throughout; a fast stage (a delay, a lag, a slew limit) may show only in
+    the few samples after each large step (independent seed 263: a 75 V/ms
+    slew limit leaves 0.012 σ² above the noise in the median block and
+    660 000 σ² in the samples after two full-range steps).  Those windows
+    (:func:`step_windows`) are predicted out of sample -- each group of them
+    left out of the fit -- by the better rate-independent model and by every
+    candidate in ``DYNAMICS``.  When the rate-independent model leaves at
+    least ``UNEXPLAINED_LEVEL`` σ² of mean-square error there, a candidate
+    is named that removes at least ``DECISIVE_SHARE`` of that excess, makes
+    no window worse by the noise margin, and does not raise the blocked
+    cross-validated error by the noise margin; the candidates within the tie
+    margin of the best are named with it, the simplest first.  Every
+    structure of a cause is tried (a lag and a resonance, which the blocks
+    may not tell apart); ``structures`` holds the one each named cause keeps.
+    """
+    settle = _settle_samples(y.size)
+    windows = [(first, stop) for first, stop in step_windows(fitter.v, settle) if first >= settle]
+    s2 = noise_um**2
+    dynamics = [c for c in DYNAMICS if c in candidates]
+    if not windows or not dynamics or not s2 > 0:
+        return None
+    rows = np.concatenate([np.arange(first, stop) for first, stop in windows])
+
+    def window_errors(ev):
+        prediction = _step_predictions(fitter, ev.fit.family, ev.fit.prediction_um, windows, settle, y)
+        return prediction, np.array([float(np.mean((y[a:b] - prediction[a:b]) ** 2)) for a, b in windows])
+
+    references = [window_errors(ev) for ev in (baseline, richer)]
+    reference, per_window = min(references, key=lambda r: float(np.mean((y[rows] - r[0][rows]) ** 2)))
+    ref_mse = float(np.mean((y[rows] - reference[rows]) ** 2))
+    excess = ref_mse - s2
+    if excess < UNEXPLAINED_LEVEL * s2:
+        return None
+    ref_cv = min(baseline.mse_um2, richer.mse_um2)
+    mse, predictions, removed, structures = {}, {}, {}, {}
+    for c in dynamics:
+        # every structure of the cause (a lag and a resonance: the blocks may not tell them apart)
+        for ev in candidates[c].structures or [candidates[c]]:
+            if ev.mse_um2 > ref_cv + NOISE_FRACTION * s2:
+                continue            # worse where the blocked cross-validation scores
+            prediction, errors = window_errors(ev)
+            value = float(np.mean((y[rows] - prediction[rows]) ** 2))
+            if (ref_mse - value >= DECISIVE_SHARE * excess and np.all(errors - per_window < NOISE_FRACTION * s2)
+                    and value < mse.get(c, math.inf)):
+                mse[c], predictions[c], structures[c] = value, prediction, ev
+                removed[c] = (ref_mse - value) / excess
+    if not mse:
+        return None
+    best = min(mse, key=mse.get)
+    margin = max(NOISE_FRACTION * s2, TIE_FRACTION * (mse[best] - s2))
+    ties = sorted((c for c in mse if mse[c] - mse[best] <= margin), key=mse.get)
+
+    def outranks(a, b):
+        return advantage_holds(y[rows], predictions[b][rows], predictions[a][rows])
+
+    winner = _simplest_unless_outranked(ties, best, complexity, mse, outranks)
+    causes = tuple([winner] + [c for c in ties if c != winner])
+    return {"cause": winner, "causes": causes, "best": best, "explained_share": removed[best],
+            "significant": {c: c in mse for c in candidates}, "text": "",
+            "structures": {c: structures[c] for c in causes},
+            "steps": {"windows": len(windows), "samples": int(rows.size), "excess_sigma2": float(excess / s2),
+                      "removed_share": {c: float(x) for c, x in removed.items()}}}
 
 
 def _reasons(candidates: dict, stats: dict) -> dict:
@@ -1010,10 +1169,14 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     noise = min(noise_sigma(y - ev.prediction_um, step)
                 for ev in [baseline, richer, *candidates.values()])
     ref_mse = min(baseline.mse_um2, richer.mse_um2)
-    for ev in [richer, *candidates.values()]:
+
+    def gains(ev):
         ev.gain_pct = 100.0 * (1.0 - ev.rms_um / baseline.rms_um) if baseline.rms_um > 0 else 0.0
         ev.gain_vs_richer_pct = 100.0 * (1.0 - ev.rms_um / math.sqrt(ref_mse)) if ref_mse > 0 else 0.0
         ev.excess_over_noise = (ref_mse - ev.mse_um2) / noise**2 if noise > 0 else 0.0
+
+    for ev in [richer, *candidates.values()]:
+        gains(ev)
     complexity = {c: ev.fit.complexity for c, ev in candidates.items()}
     consistent = {c: removal_holds(y, rate_independent.cv_prediction_um, ev.cv_prediction_um)
                   for c, ev in candidates.items()}
@@ -1030,6 +1193,16 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         # catalogue" would name the missing excitation as an effect, and on an input that barely
         # reverses a slow trend in time is a trend in the input level, i.e. the shape again
         verdict = {**verdict, "cause": "none", "causes": (), "best": None, "explained_share": 0.0, "text": ""}
+    if verdict["cause"] == "none" and not unidentified:
+        by_steps = _shown_by_steps(fitter, baseline, richer, candidates, y, noise, complexity)
+        if by_steps is not None:
+            verdict = by_steps
+            for c, ev in by_steps.pop("structures").items():
+                if ev is not candidates[c]:
+                    # the structure the steps named (a resonance the blocks tied with a lag)
+                    ev.structures, ev.significant = candidates[c].structures, candidates[c].significant
+                    gains(ev)
+                    candidates[c] = ev
     cv_verdict = verdict
 
     validation = None
@@ -1101,13 +1274,17 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     statistics = {"baseline": stats,
                   "extended": residual_statistics((y - extended.prediction_um)[held], v[held], sample_rate_hz,
                                                   noise)}
-    if cause == "none" and validate is not None and not unidentified and not _swap_reason:
+    steps_alone = bool(cv_verdict.get("steps") and validation is not None
+                       and validation["verdict_by"] != "second record")
+    if (cause == "none" or steps_alone) and validate is not None and not unidentified and not _swap_reason:
         # an effect that the first record's input does not excite (creep that a single sine hides in
         # the loop's shape and a multisine shows) is found only when the second record is the one
-        # fitted and cross-validated; its verdict must then hold on the first record, by the same rules
+        # fitted and cross-validated; its verdict must then hold on the first record, by the same rules.
+        # So too when only the first record's steps name a cause: the steps' look-alikes (a lag, an
+        # input low-pass, a delay) may be told apart by the second record fitted in its turn
         first, second = source or "the first record", validate_source or "the second record"
-        turned = in_turn(f"{first} shows no effect beyond its noise, and {second} may show one that the input "
-                         f"of {first} does not excite")
+        shows = "shows an effect only in its responses to steps" if steps_alone else "shows no effect beyond its noise"
+        turned = in_turn(f"{first} {shows}, and {second} may show one that the input of {first} does not excite")
         if turned is not None and turned.cause in EFFECTS:
             return turned
     return Diagnosis(cause=cause, split=split, sample_period_s=T, noise_um=noise, baseline=baseline,
@@ -1119,7 +1296,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                      scored_samples=int(np.count_nonzero(mask)), cross_validation_cause=cv_verdict["cause"],
                      cross_validation_causes=tuple(cv_verdict["causes"]), validation=validation,
                      excitation_plan=plan, start_excluded_samples=start,
-                     records_swapped=bool(_swap_reason), swap_reason=_swap_reason)
+                     records_swapped=bool(_swap_reason), swap_reason=_swap_reason,
+                     steps=cv_verdict.get("steps"))
 
 
 class _RolesStand(Exception):
@@ -1154,6 +1332,14 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
     sample's delay, and predicts steps worse.
     """
     train_range = (float(v1.min()), float(v1.max()))
+
+    def raised():
+        # a verdict shown by steps is tested on the second record's own hysteresis fit (see
+        # _raised_on_own_hysteresis); any other by the first record's models
+        if not cv_verdict.get("steps"):
+            return None
+        return _raised_on_own_hysteresis(fitter, candidates, cv_verdict["causes"], v2, y2)
+
     for ev in [baseline, richer, *candidates.values()]:
         if ev.validation is None:
             ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1)
@@ -1187,6 +1373,8 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
             verdict = dict(verdict, cause=winner, causes=tuple(ties), best=best)
     standing, by = "", "second record"
     excess2 = ref_val - noise2**2
+    shown_by_steps_too = bool(cv_verdict.get("steps") and verdict["cause"] in EFFECTS
+                              and verdict["cause"] in cv_verdict["steps"]["removed_share"])
     decisive = (verdict["cause"] in EFFECTS and excess2 >= UNEXPLAINED_LEVEL * noise2**2
                 and ref_val - mse[verdict["cause"]] >= DECISIVE_SHARE * excess2
                 and candidates[verdict["cause"]].mse_um2 <= ref_cv + NOISE_FRACTION * noise1**2
@@ -1196,6 +1384,12 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
         standing = (f"; the first record shows nothing beyond its noise, but on the second record "
                     f"{verdict['cause']} removes {100 * (ref_val - mse[verdict['cause']]) / excess2:.0f} % of a "
                     f"residual of {excess2 / noise2**2:.3g} σ² above the noise")
+    elif shown_by_steps_too:
+        # the first record's steps show an effect, and the second record names one that predicts
+        # those steps too: the second record tells the look-alikes on the steps apart
+        standing = (f"; on the first record's steps {verdict['cause']} removes "
+                    f"{100 * cv_verdict['steps']['removed_share'][verdict['cause']]:.0f} % of what the "
+                    "rate-independent model leaves there, and the second record names it")
     elif ref_cv - noise1**2 < 2.0 * NOISE_FRACTION * noise1**2 and verdict["cause"] != cv_verdict["cause"]:
         # the first record shows nothing beyond its noise: every candidate's effect parameters were
         # fitted to noise there, so what one gains on the second record is a correction of the
@@ -1203,7 +1397,7 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
         standing = (f"; the first record leaves only {(ref_cv - noise1**2) / noise1**2:.2g} σ² above its noise "
                     "(the candidates' effects were fitted to noise there), so the second record's "
                     f"{verdict['cause']} is not evidence of an effect: diagnose the second record on its own")
-        kept, contradicted = _not_contradicted(cv_verdict, mse, ref_val, noise2)
+        kept, contradicted = _not_contradicted(cv_verdict, mse, ref_val, noise2, raised())
         if contradicted:
             # an effect named near the noise of the first record must not make the second one worse
             standing += (f"; {', '.join(contradicted)} {'raises' if len(contradicted) == 1 else 'raise'} the "
@@ -1223,7 +1417,7 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
         verdict = dict(verdict, cause=best, causes=(best,))
     quiet = ref_val - noise2**2 < 2.0 * NOISE_FRACTION * noise2**2
     if quiet and verdict["cause"] == "none" and cv_verdict["cause"] != "none":
-        kept, contradicted = _not_contradicted(cv_verdict, mse, ref_val, noise2)
+        kept, contradicted = _not_contradicted(cv_verdict, mse, ref_val, noise2, raised())
         if not kept:
             standing = (f"; the first record's verdict ({', '.join(cv_verdict['causes'])}) is not kept: "
                         f"{', '.join(contradicted)} {'raises' if len(contradicted) == 1 else 'raise'} the second "
@@ -1240,16 +1434,56 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
     return _validation_result(baseline, richer, candidates, noise2, verdict, standing, not quiet, by)
 
 
-def _not_contradicted(cv_verdict, mse, ref_val, noise2):
+def _not_contradicted(cv_verdict, mse, ref_val, noise2, raised=None):
     """The first record's named causes split into those the second record leaves and those that raise
-    its error by ``NOISE_FRACTION`` σ² or more."""
-    contradicted = [c for c in cv_verdict["causes"] if c in mse and mse[c] - ref_val >= NOISE_FRACTION * noise2**2]
+    its error by ``NOISE_FRACTION`` σ² or more (``raised``: cause → the rise in σ², measured
+    otherwise, :func:`_raised_on_own_hysteresis`)."""
+    if raised is not None:
+        contradicted = [c for c in cv_verdict["causes"] if raised.get(c, 0.0) >= NOISE_FRACTION]
+    else:
+        contradicted = [c for c in cv_verdict["causes"]
+                        if c in mse and mse[c] - ref_val >= NOISE_FRACTION * noise2**2]
     return [c for c in cv_verdict["causes"] if c not in contradicted], contradicted
 
 
-#: Dynamics whose shape a second record can show without identifying the hysteresis itself (the
-#: ringing after an upward step, a lag, a delay, the ramp of a slew limit, an input low-pass).
-DYNAMICS = ("rate_dependence", "delay", "rate_dependent_hysteresis", "slew_limit")
+def _raised_on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes, v2, y2) -> dict:
+    """Cause → how much its effect, as the first record fitted it, raises the second record's
+    mean-square error (in that record's noise variances) on the rate-independent part the second
+    record fits itself.
+
+    The models fitted on the first record carry its hysteresis part; when
+    steps were what showed the effect, that part may predict another input
+    far worse than any effect matters, and the comparison with the first
+    record's rate-independent model measures the two hysteresis fits, not
+    the effect.  Here the effect's shape (a delay, a lag, a slew rate, an
+    input low-pass) is put on the second record's own richer
+    rate-independent model and the linear parameters are fitted there, with
+    and without it: in sample, with the same free parameters.
+    """
+    try:
+        second = CandidateFitter(v2, y2, fitter.T, n_operators=fitter.n, model=fitter.kind,
+                                 operator=fitter.operator)
+        base = second.base("richer")
+        own = second.fit(base)
+    except IdentificationError:
+        return {}
+    noise = noise_sigma(y2 - own.prediction_um, quantum(y2))
+    if not noise > 0:
+        return {}
+    own_mse = float(np.mean((y2 - own.prediction_um) ** 2))
+    raised = {}
+    for cause in causes:
+        if cause not in candidates:
+            continue
+        try:
+            family = second.adopt(base, candidates[cause].fit.family)
+            _, result = second.with_estimated_state(family)
+        except (IdentificationError, DiagnosisError):
+            continue
+        raised[cause] = (float(np.mean((y2 - result.prediction_um) ** 2)) - own_mse) / noise**2
+    return raised
+
+
 
 
 def _dynamics_where_they_show(fitter, run, reference, candidates, v1, v2, y2, noise1_um) -> list:
@@ -1424,6 +1658,14 @@ def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -
                     f"{validation['table']['baseline']['rms_pct']:.3g} % → {row['rms_pct']:.3g} % of range (richer "
                     f"rate-independent model {validation['table']['richer']['rms_pct']:.3g} %), cross-validated "
                     f"{baseline.rms_pct:.3g} % → {ev.rms_pct:.3g} %")
+        elif verdict.get("steps"):
+            steps = verdict["steps"]
+            text = (f"{cause} predicts the responses to {steps['windows']} step{'s' if steps['windows'] > 1 else ''} "
+                    f"into holds best, each left out of its fit: of the {steps['excess_sigma2']:.3g} σ² that the "
+                    f"best rate-independent model leaves above the noise in the {steps['samples']} samples after "
+                    f"them, it removes {100 * steps['removed_share'][cause]:.0f} % (the median over the "
+                    f"cross-validation blocks, {baseline.rms_pct:.3g} % → {ev.rms_pct:.3g} % of range, does not "
+                    f"weigh so few samples; σ = {noise:.3g} µm)")
         else:
             text = (f"{cause} lowers the cross-validated RMS error the most: {baseline.rms_pct:.3g} % → "
                     f"{ev.rms_pct:.3g} % of range ({ev.gain_pct:.1f} % less; {ev.gain_vs_richer_pct:.1f} % less "
