@@ -450,6 +450,11 @@ def test_an_effect_that_only_two_large_steps_show_is_named_by_the_responses_to_t
     assert not alone.candidates["slew_limit"].significant, alone.why    # the blocks alone show nothing
     evidence = alone.as_json()["evidence"]["steps"]
     assert evidence["windows"] >= 2 and evidence["removed_share"]["slew_limit"] >= 0.75, evidence
+    assert "on the responses to" in alone.reasons["slew_limit"], alone.reasons
+    from pysim.cli.commands.diagnose import format_text
+    from pysim.diagnosis.report import summary_markdown
+    assert "step(s) into holds it removes" in format_text(alone, None, None)
+    assert "step(s) into holds, each left out of its fit, it removes" in summary_markdown(alone)
     assert abs(alone.extended.fit.parameters["rate_V_per_ms"] / truth - 1) < 0.25, alone.extended.fit.parameters
     d = _validated(pair)
     assert d.cause == "slew_limit" and d.causes == ("slew_limit",), d.why

@@ -946,8 +946,9 @@ def _shown_by_steps(fitter: CandidateFitter, baseline, richer, candidates: dict,
                       "removed_share": {c: float(x) for c, x in removed.items()}}}
 
 
-def _reasons(candidates: dict, stats: dict) -> dict:
-    """One sentence of evidence per candidate: its fit, and the statistic that points to it."""
+def _reasons(candidates: dict, stats: dict, steps: dict | None = None) -> dict:
+    """One sentence of evidence per candidate: its fit, and the statistic that points to it (and,
+    when the responses to steps named the cause, what each candidate removes there)."""
     text = {}
     for cause, ev in candidates.items():
         p = ev.fit.parameters
@@ -988,6 +989,9 @@ def _reasons(candidates: dict, stats: dict) -> dict:
         if ev.significant and ev.excess_over_noise < NOISE_FRACTION:
             verdict = "significant near the noise: at least half of the excess, and it holds across the record"
         cond = ev.fit.result.condition_number if ev.fit.result is not None else float("nan")
+        if steps and cause in steps["removed_share"]:
+            verdict += (f" in the blocks; on the responses to {steps['windows']} step(s) into holds it removes "
+                        f"{100 * steps['removed_share'][cause]:.0f} % of {steps['excess_sigma2']:.3g} σ²")
         text[cause] = (f"{shape}: cross-validated RMS {ev.rms_pct:.3g} % (gain {ev.gain_pct:+.1f} % against the "
                        f"baseline, {ev.gain_vs_richer_pct:+.1f} % against the best rate-independent model, removes "
                        f"{ev.excess_over_noise:.2f} σ²: {verdict}); condition number {cond:.3g}; {hint}")
@@ -1289,7 +1293,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
             return turned
     return Diagnosis(cause=cause, split=split, sample_period_s=T, noise_um=noise, baseline=baseline,
                      candidates=candidates, extended=extended, statistics=statistics,
-                     reasons=_reasons(candidates, stats), why=why, time_s=time, voltage_V=v,
+                     reasons=_reasons(candidates, stats, cv_verdict.get("steps")), why=why, time_s=time, voltage_V=v,
                      displacement_um=y, source=source, causes=tuple(causes), excitation=excitation,
                      richer=richer, folds=[{"train_samples": int(t.size), "scored_samples": int(s.size)}
                                            for t, s in folds],

@@ -313,7 +313,11 @@ def summary_markdown(d: Diagnosis) -> str:
     lines += [
         "",
         f"Extended model: `{d.extended.cause}`; gain **{d.gain_pct:.1f} %** less cross-validated RMS error "
-        "than the baseline (`100 (1 − rms_after / rms_before)`).",
+        "than the baseline (`100 (1 − rms_after / rms_before)`)"
+        + (f"; on the responses to {d.steps['windows']} step(s) into holds, each left out of its fit, it removes "
+           f"**{100 * d.steps['removed_share'][d.extended.cause]:.0f} %** of the "
+           f"{d.steps['excess_sigma2']:.3g} σ² the rate-independent model leaves above the noise there."
+           if d.steps and d.extended.cause in d.steps["removed_share"] else "."),
         "",
         "## Data and scoring",
         "",

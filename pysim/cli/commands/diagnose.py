@@ -120,7 +120,12 @@ def format_text(result, report, out) -> str:
     for cause, rms, mx, gain, val in result.table():
         label = {"baseline": "baseline MPI", "richer": "richer RI"}.get(cause, cause)
         lines.append(f"  {label:<27.27s} {mx:9.3f} {rms:9.3f}" + (f" {val:12.3f}" if val is not None else ""))
-    lines += [f"  extended ({result.extended.cause}): gain {result.gain_pct:.1f} %", "", "  candidates:"]
+    steps = result.steps
+    by_steps = (f"; on the responses to {steps['windows']} step(s) into holds it removes "
+                f"{100 * steps['removed_share'].get(result.extended.cause, 0.0):.0f} % of the excess"
+                if steps and result.extended.cause in steps["removed_share"] else "")
+    lines += [f"  extended ({result.extended.cause}): gain {result.gain_pct:.1f} % (cross-validated){by_steps}",
+              "", "  candidates:"]
     for cause, text in result.reasons.items():
         lines.append(f"    {cause}: {text}")
     if result.validation:
