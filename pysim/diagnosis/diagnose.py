@@ -858,23 +858,18 @@ def advantage_holds(y, reference_um, candidate_um, t_min: float = NEAR_NOISE_T) 
     return bool(d.mean() > t_min * math.sqrt(long_run / n))
 
 
-def _step_predictions(fitter: CandidateFitter, family: Family, fallback_um, windows, settle: int, y):
-    """Predictions of ``family`` on the step ``windows``, each group of windows left out of its fit
-    (at most ``N_FOLDS`` groups, round robin; NaN outside the windows)."""
-    out = np.full(y.size, np.nan)
-    groups = [windows[j::N_FOLDS] for j in range(min(N_FOLDS, len(windows)))]
-    for group in groups:
-        keep = np.ones(y.size, dtype=bool)
+def _step_folds(windows, settle: int, n_samples: int) -> list:
+    """The step ``windows`` as cross-validation folds: at most ``N_FOLDS`` groups (round robin), each
+    scored on its windows and trained on every other sample after ``settle``."""
+    folds = []
+    for j in range(min(N_FOLDS, len(windows))):
+        keep = np.ones(n_samples, dtype=bool)
         keep[:settle] = False
+        group = windows[j::N_FOLDS]
         for first, stop in group:
             keep[first:stop] = False
-        try:
-            prediction = fitter.fit(family, np.flatnonzero(keep)).prediction_um
-        except IdentificationError:
-            prediction = fallback_um
-        for first, stop in group:
-            out[first:stop] = prediction[first:stop]
-    return out
+        folds.append((np.flatnonzero(keep), np.concatenate([np.arange(a, b) for a, b in group])))
+    return folds
 
 
 def _shown_by_steps(fitter: CandidateFitter, baseline, richer, candidates: dict, y, noise_um: float,
@@ -904,14 +899,15 @@ def _shown_by_steps(fitter: CandidateFitter, baseline, richer, candidates: dict,
     if not windows or not dynamics or not s2 > 0:
         return None
     rows = np.concatenate([np.arange(first, stop) for first, stop in windows])
+    folds = _step_folds(windows, settle, y.size)
 
     def window_errors(ev):
-        prediction = _step_predictions(fitter, ev.fit.family, ev.fit.prediction_um, windows, settle, y)
-        return prediction, np.array([float(np.mean((y[a:b] - prediction[a:b]) ** 2)) for a, b in windows])
+        """(prediction, mean-square error on every window, on all of them) out of sample."""
+        prediction = _cross_validate(fitter, ev.fit.family, ev.fit, folds, y)
+        per_window = np.array([float(np.mean((y[a:b] - prediction[a:b]) ** 2)) for a, b in windows])
+        return prediction, per_window, float(np.mean((y[rows] - prediction[rows]) ** 2))
 
-    references = [window_errors(ev) for ev in (baseline, richer)]
-    reference, per_window = min(references, key=lambda r: float(np.mean((y[rows] - r[0][rows]) ** 2)))
-    ref_mse = float(np.mean((y[rows] - reference[rows]) ** 2))
+    _, per_window, ref_mse = min((window_errors(ev) for ev in (baseline, richer)), key=lambda r: r[2])
     excess = ref_mse - s2
     if excess < UNEXPLAINED_LEVEL * s2:
         return None
@@ -922,8 +918,7 @@ def _shown_by_steps(fitter: CandidateFitter, baseline, richer, candidates: dict,
         for ev in candidates[c].structures or [candidates[c]]:
             if ev.mse_um2 > ref_cv + NOISE_FRACTION * s2:
                 continue            # worse where the blocked cross-validation scores
-            prediction, errors = window_errors(ev)
-            value = float(np.mean((y[rows] - prediction[rows]) ** 2))
+            prediction, errors, value = window_errors(ev)
             if (ref_mse - value >= DECISIVE_SHARE * excess and np.all(errors - per_window < NOISE_FRACTION * s2)
                     and value < mse.get(c, math.inf)):
                 mse[c], predictions[c], structures[c] = value, prediction, ev
@@ -1486,8 +1481,6 @@ def _raised_on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes,
             continue
         raised[cause] = (float(np.mean((y2 - result.prediction_um) ** 2)) - own_mse) / noise**2
     return raised
-
-
 
 
 def _dynamics_where_they_show(fitter, run, reference, candidates, v1, v2, y2, noise1_um) -> list:

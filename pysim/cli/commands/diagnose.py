@@ -122,7 +122,7 @@ def format_text(result, report, out) -> str:
         lines.append(f"  {label:<27.27s} {mx:9.3f} {rms:9.3f}" + (f" {val:12.3f}" if val is not None else ""))
     steps = result.steps
     by_steps = (f"; on the responses to {steps['windows']} step(s) into holds it removes "
-                f"{100 * steps['removed_share'].get(result.extended.cause, 0.0):.0f} % of the excess"
+                f"{100 * steps['removed_share'][result.extended.cause]:.0f} % of the excess"
                 if steps and result.extended.cause in steps["removed_share"] else "")
     lines += [f"  extended ({result.extended.cause}): gain {result.gain_pct:.1f} % (cross-validated){by_steps}",
               "", "  candidates:"]
