@@ -68,7 +68,7 @@ import scipy.signal
 __all__ = ["EFFECTS", "INPUT_KINDS", "VOLTAGE_RANGES_V", "SAMPLE_RATES_HZ", "OVERSAMPLING",
            "DETECTABLE_RATIO", "Plant", "Record", "Truth", "RecordPair", "make_pair", "make_plant",
            "osp_operators", "osp_recursion", "branch_slopes", "first_order_lowpass", "respond", "plant_from_dict",
-           "second_order_lowpass", "rate_limit", "rich_basis_residual"]
+           "second_order_lowpass", "rate_limit", "rich_basis_residual", "preisach_relays"]
 
 #: Effects a record can hide, in the order the seeds cycle through them ("none" twice).
 EFFECTS = ("none", "rate_dependence", "creep", "delay", "drift", "rate_dependent_hysteresis", "slew_limit")
@@ -240,6 +240,43 @@ def second_order_lowpass(x, dt_s, natural_frequency_hz, damping_ratio):
     a = np.array([[0.0, 1.0], [-w * w, -2.0 * damping_ratio * w]])
     return _run_lti(np.asarray(x, dtype=float), dt_s,
                     (a, np.array([[0.0], [w * w]]), np.array([[1.0, 0.0]]), np.array([[0.0]])))
+
+
+def preisach_relays(v, lo, hi, levels: int = 30, up_centre: float = 0.7, down_centre: float = 0.3,
+                    ramp_share: float = 0.0):
+    """A hysteresis outside the MPI class: a Preisach model of relays.
+
+    Relays switch up at ``alpha`` and down at ``beta <= alpha`` on a grid of
+    ``levels`` values over ``[lo, hi]``; their weight is a 2-D Gaussian
+    centred at (``up_centre``, ``down_centre``) of the range, so minor loops
+    are not congruent (a play-operator model cannot draw them).  All relays
+    start down (the input came from below ``lo``).  With ``ramp_share`` > 0
+    each relay switches along a ramp of that share of the range instead of
+    at once (the Krasnosel'skii-Pokrovskii kernel): the output is continuous,
+    as a real actuator's is.  Returns the weighted relay sum in [-1, 1].
+    """
+    v = np.asarray(v, dtype=float)
+    grid = np.linspace(lo, hi, levels)
+    up, down = np.meshgrid(grid, grid, indexing="ij")
+    keep = up >= down
+    up, down = up[keep], down[keep]
+    x, z = (up - lo) / (hi - lo), (down - lo) / (hi - lo)
+    weight = np.exp(-((x - up_centre) ** 2 / 0.09 + (z - down_centre) ** 2 / 0.04) / 2)
+    weight /= weight.sum()
+    state = -np.ones(weight.size)
+    out = np.empty(v.size)
+    ramp = ramp_share * (hi - lo)
+    for k, u in enumerate(v):
+        if ramp > 0:
+            # up along [alpha - ramp, alpha], down along [beta, beta + ramp]
+            rising = np.clip(2.0 * (u - up) / ramp + 1.0, -1.0, 1.0)
+            falling = np.clip(2.0 * (u - down) / ramp - 1.0, -1.0, 1.0)
+            state = np.maximum(np.minimum(state, falling), rising)
+        else:
+            state[up <= u] = 1.0
+            state[down >= u] = -1.0
+        out[k] = weight @ state
+    return out
 
 
 def rate_limit(x, dt_s, max_rate_V_per_s):

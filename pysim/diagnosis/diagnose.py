@@ -83,6 +83,7 @@ from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.excitation import separating_excitation
 from pysim.diagnosis.input_stages import InputStageModel
 from pysim.diagnosis.residuals import noise_sigma, quantum, residual_statistics
+from pysim.diagnosis.path_memory import path_memory, path_predicted
 from pysim.diagnosis.validation import inside_range, score_on_record
 from pysim.identification.identify import IdentificationError, identify, start_transient
 
@@ -326,6 +327,12 @@ class Diagnosis:
         cause (:func:`step_windows`): the number of windows and samples, the
         mean-square error the rate-independent model leaves there above the
         noise (σ²) and the share each qualifying candidate removes.
+    shape : dict
+        Record ("first", "second") → the hysteresis shape error found there
+        (:func:`path_corrected`): what the input's path alone predicts of the
+        best rate-independent model's residual, in σ² and % of range; every
+        model on that record was compared after the same correction.  Empty
+        when the MPI class draws the record's loops.
     baseline, extended, richer : Evaluation
     candidates : dict
         Cause → Evaluation.
@@ -358,6 +365,7 @@ class Diagnosis:
     records_swapped: bool = False
     swap_reason: str = ""
     steps: dict = None
+    shape: dict = field(default_factory=dict)
 
     @property
     def gain_pct(self) -> float:
@@ -427,6 +435,7 @@ class Diagnosis:
                 "cross_validation_cause": self.cross_validation_cause,
                 "cross_validation_causes": list(self.cross_validation_causes),
                 "steps": self.steps,
+                "shape": self.shape,
                 "validation": self.validation,
                 "residual_statistics": _plain(self.statistics),
             },
@@ -941,6 +950,143 @@ def _shown_by_steps(fitter: CandidateFitter, baseline, richer, candidates: dict,
                       "removed_share": {c: float(x) for c, x in removed.items()}}}
 
 
+def path_corrected(predictions: dict, y, memory, blocks, score, noise_um: float, reference) -> tuple | None:
+    """Every model's prediction plus what the input's path alone predicts of its residual -- when the
+    record's hysteresis shape lies outside the model class.
+
+    A rate-independent residual is a function of the input's path memory
+    (:mod:`pysim.diagnosis.path_memory`); a residual that depends on the
+    input's timing is not.  Each model's residual is predicted out of block
+    from the samples with the nearest memory, and the prediction is added to
+    the model's.  The correction counts (the shape is outside the class) when
+    it removes ``UNEXPLAINED_LEVEL`` σ² or more of the better rate-independent
+    model's error and leaves that model below every other model's
+    uncorrected error by the noise margin (``NOISE_FRACTION`` σ²): the path
+    explains more than any effect.  Then every model is compared after it --
+    a shape error is neither named as an effect nor called unexplained, and
+    an effect is named by what it removes beyond the shape.
+
+    Parameters
+    ----------
+    predictions : dict
+        Model → out-of-sample prediction (µm; NaN where not scored).
+    y : ndarray
+        Measured displacement, µm.
+    memory : ndarray
+        :func:`pysim.diagnosis.path_memory.path_memory` of the record's input.
+    blocks : list of (train_rows, predicted_rows)
+    score : callable
+        Prediction → mean-square error (µm²) as the record is scored.
+    noise_um : float
+    reference : iterable
+        The keys of the rate-independent models.
+
+    Returns
+    -------
+    ``(corrected, evidence)`` -- model → corrected prediction, and a dict
+    with ``removed_sigma2`` (the shape error removed from the better
+    rate-independent model), ``left_sigma2`` (its error after) and
+    ``shape_rms_pct`` (the shape error's RMS, % of the range of ``y``) -- or
+    None when the correction does not count.
+
+    Examples
+    --------
+    A loop the model misses (a Preisach-like shape) on a repeated triangle:
+
+    >>> v = np.tile(np.r_[np.linspace(0, 10, 100), np.linspace(10, 0, 100)], 10)
+    >>> y = v + np.where(np.diff(v, prepend=0) >= 0, -0.5, 0.5)
+    >>> y = y + np.random.default_rng(0).normal(0, 0.05, v.size)
+    >>> blocks = [(np.setdiff1d(np.arange(v.size), b), b) for b in np.array_split(np.arange(v.size), 5)]
+    >>> score = lambda p: float(np.mean((y - p) ** 2))
+    >>> corrected, evidence = path_corrected({"baseline": v, "lag": v}, y, path_memory(v), blocks, score,
+    ...                                      0.05, ["baseline"])
+    >>> evidence["removed_sigma2"] > 90, evidence["left_sigma2"] < 3
+    (True, True)
+    """
+    y = np.asarray(y, dtype=float)
+    s2 = noise_um**2
+    if not s2 > 0:
+        return None
+    keys = list(predictions)
+    # every model's residual at once: the nearest paths are found once per block
+    shapes = path_predicted(np.column_stack([y - predictions[k] for k in keys]), memory, blocks)
+    corrected = {k: np.where(np.isfinite(shapes[:, i]), predictions[k] + shapes[:, i], predictions[k])
+                 for i, k in enumerate(keys)}
+    before = {k: score(p) for k, p in predictions.items()}
+    after = {k: score(p) for k, p in corrected.items()}
+    reference = list(reference)
+    ref_before, ref_after = min(before[k] for k in reference), min(after[k] for k in reference)
+    others = [before[k] for k in predictions if k not in reference]
+    if ref_before - ref_after < UNEXPLAINED_LEVEL * s2 or (others and ref_after > min(others) - NOISE_FRACTION * s2):
+        return None
+    span = float(np.ptp(y[np.isfinite(y)]))
+    return corrected, {"removed_sigma2": float((ref_before - ref_after) / s2), "left_sigma2": float(ref_after / s2),
+                       "shape_rms_pct": 100.0 * math.sqrt(max(ref_before - ref_after, 0.0)) / span if span > 0
+                       else float("nan")}
+
+
+def _shape_not_unexplained(verdict: dict, shape: dict) -> dict:
+    """``none`` instead of ``unexplained`` when no candidate is significant and the record's residual
+    is mostly a hysteresis shape outside the model class: the input's path alone predicted at least as
+    much of it as is left above the noise (``shape``: :func:`path_corrected`'s evidence, {} when none).
+    What is left is then most likely the rest of that shape, which the nearest paths of other blocks
+    could not teach; it is no evidence of an effect outside the catalogue."""
+    if (shape and verdict["cause"] == "unexplained" and verdict["best"] is None
+            and shape["removed_sigma2"] >= shape["left_sigma2"] - 1.0):
+        return dict(verdict, cause="none", causes=(), explained_share=0.0, text="", shape_dominates=True)
+    return verdict
+
+
+def _contiguous_blocks(n_samples: int, n_blocks: int = N_FOLDS) -> list:
+    """Each block predicted from all the others (for a second record's path correction)."""
+    blocks = np.array_split(np.arange(n_samples), n_blocks)
+    return [(np.concatenate([b for j, b in enumerate(blocks) if j != i]), block) for i, block in enumerate(blocks)]
+
+
+def _correct_for_shape(evaluations, folds, y, mask, memory, noise_um) -> dict:
+    """Apply :func:`path_corrected` to the cross-validated predictions of ``evaluations`` (the first two
+    are the rate-independent models); the evidence, or {} when the shape is inside the class."""
+    def per_block(prediction):
+        return [float(np.mean((y[s] - prediction[s]) ** 2)) for _, s in folds if s.size]
+
+    found = path_corrected({i: ev.cv_prediction_um for i, ev in enumerate(evaluations)}, y, memory, folds,
+                           lambda p: float(np.median(per_block(p))), noise_um, (0, 1))
+    if found is None:
+        return {}
+    corrected, evidence = found
+    span = float(np.ptp(y[mask]))
+    for i, ev in enumerate(evaluations):
+        ev.cv_prediction_um = corrected[i]
+        ev.per_block_mse_um2 = per_block(corrected[i])
+        ev.rms_um = math.sqrt(float(np.median(ev.per_block_mse_um2)))
+        ev.rms_pct = 100.0 * ev.rms_um / span
+    return evidence
+
+
+def _correct_validation_for_shape(evaluations, v2, y2, train_range, noise2_um) -> dict:
+    """The same on the second record, for the scores of :func:`score_on_record` (the first two
+    evaluations are the rate-independent models)."""
+    scored = np.flatnonzero(inside_range(v2, *train_range))
+    scored = scored[(scored > 0) & (scored < v2.size - 1)]
+    if scored.size < 10:
+        scored = np.arange(1, v2.size - 1)
+
+    def score(prediction):
+        return float(np.mean((y2[scored] - prediction[scored]) ** 2))
+
+    found = path_corrected({i: ev.validation["prediction_um"] for i, ev in enumerate(evaluations)}, y2,
+                           path_memory(v2), _contiguous_blocks(v2.size), score, noise2_um, (0, 1))
+    if found is None:
+        return {}
+    corrected, evidence = found
+    span = float(np.ptp(y2[scored]))
+    for i, ev in enumerate(evaluations):
+        mse = score(corrected[i])
+        ev.validation = dict(ev.validation, prediction_um=corrected[i], mse_um2=mse,
+                             rms_pct=100.0 * math.sqrt(mse) / span, shape_corrected=True)
+    return evidence
+
+
 def _reasons(candidates: dict, stats: dict, steps: dict | None = None) -> dict:
     """One sentence of evidence per candidate: its fit, and the statistic that points to it (and,
     when the responses to steps named the cause, what each candidate removes there)."""
@@ -1167,6 +1313,12 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
 
     noise = min(noise_sigma(y - ev.prediction_um, step)
                 for ev in [baseline, richer, *candidates.values()])
+    # a hysteresis shape outside the model class: every model is compared after the same correction
+    shape = {}
+    first_shape = _correct_for_shape([baseline, richer, *candidates.values()], folds, y, mask, path_memory(v),
+                                     noise)
+    if first_shape:
+        shape["first"] = first_shape
     ref_mse = min(baseline.mse_um2, richer.mse_um2)
 
     def gains(ev):
@@ -1183,8 +1335,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     def outranks(a, b):
         return advantage_holds(y, candidates[b].cv_prediction_um, candidates[a].cv_prediction_um)
 
-    verdict = decide({c: ev.mse_um2 for c, ev in candidates.items()}, baseline.mse_um2, richer.mse_um2,
-                     noise, complexity, consistent, outranks)
+    verdict = _shape_not_unexplained(decide({c: ev.mse_um2 for c, ev in candidates.items()}, baseline.mse_um2,
+                                            richer.mse_um2, noise, complexity, consistent, outranks), first_shape)
     for c, ev in candidates.items():
         ev.significant = verdict["significant"][c]
     if unidentified and verdict["cause"] in ("unexplained", "drift"):
@@ -1209,6 +1361,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         validation, v_verdict = _validate(fitter, baseline, richer, candidates, v, v2, y2, complexity,
                                           cv_verdict, noise, outranks)
         validation["source"] = validate_source
+        if validation.get("shape"):
+            shape["second"] = validation["shape"]
         if shaped_on_second:
             validation["note"] += (f"; the shape of {' and '.join(shaped_on_second)} was searched on the second "
                                    "record, which shows it but cannot identify the hysteresis (the hysteresis "
@@ -1257,6 +1411,18 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                None if unidentified else validation)
     if unidentified:
         why += f". The record cannot identify the hysteresis: {unidentified}"
+    for which, found in shape.items():
+        where_found = "the record fitted" if which == "first" else "the second record"
+        why += (f". On {where_found} the input's path alone predicts {found['removed_sigma2']:.3g} σ² of what "
+                f"the rate-independent models leave ({found['shape_rms_pct']:.2g} % of range RMS; "
+                f"{found['left_sigma2']:.3g} σ² left): a rate-independent error -- "
+                + ("a hysteresis shape outside the model class" if which == "first" else
+                   "a hysteresis shape outside the model class, or the first record's hysteresis part on an input "
+                   "it never showed")
+                + " -- so every model there is compared after the same path-only correction"
+                + (f"; the {found['left_sigma2'] - 1.0:.3g} σ² still above the noise is most likely the rest of "
+                   "that shape (the nearest paths of other blocks cannot teach all of it), not an effect outside "
+                   "the catalogue" if cause == "none" and found["left_sigma2"] - 1.0 >= UNEXPLAINED_LEVEL else ""))
     if _swap_reason:
         swap = (f"the records' roles are swapped: {_swap_reason}, so every model is fitted on {source} and "
                 f"scored on {validate_source}")
@@ -1296,7 +1462,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                      cross_validation_causes=tuple(cv_verdict["causes"]), validation=validation,
                      excitation_plan=plan, start_excluded_samples=start,
                      records_swapped=bool(_swap_reason), swap_reason=_swap_reason,
-                     steps=cv_verdict.get("steps"))
+                     steps=cv_verdict.get("steps"), shape=shape)
 
 
 class _RolesStand(Exception):
@@ -1343,6 +1509,8 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
         if ev.validation is None:
             ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1)
     noise2 = min(ev.validation["noise_um"] for ev in [baseline, richer, *candidates.values()])
+    second_shape = _correct_validation_for_shape([baseline, richer, *candidates.values()], v2, y2, train_range,
+                                                 noise2)
     mse = {c: ev.validation["mse_um2"] for c, ev in candidates.items()}
     ref_val = min(baseline.validation["mse_um2"], richer.validation["mse_um2"])
     ref_cv = min(baseline.mse_um2, richer.mse_um2)
@@ -1351,8 +1519,9 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
     # shape outside the model class (a Bouc-Wen plant: a drift 0.35 σ² worse out of sample on the
     # multisine it was fitted on was named for 0.49 σ² gained on a sine)
     worse_where_fitted = {c for c, ev in candidates.items() if ev.mse_um2 > ref_cv + NOISE_FRACTION * noise1**2}
-    verdict = decide({c: m for c, m in mse.items() if c not in worse_where_fitted}, baseline.validation["mse_um2"],
-                     richer.validation["mse_um2"], noise2, complexity)
+    verdict = _shape_not_unexplained(decide({c: m for c, m in mse.items() if c not in worse_where_fitted},
+                                            baseline.validation["mse_um2"], richer.validation["mse_um2"], noise2,
+                                            complexity), second_shape)
     if verdict["cause"] in EFFECTS:
         # the second record names the cause; among the candidates significant on both records the
         # one that lowers the error most on both together wins (a second record whose input the
@@ -1372,13 +1541,47 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
             verdict = dict(verdict, cause=winner, causes=tuple(ties), best=best)
     standing, by = "", "second record"
     excess2 = ref_val - noise2**2
+    own_excess = []
+
+    def own_rate_independent_excess():
+        if not own_excess:
+            own_excess.append(_rate_independent_excess(fitter, v2, y2))
+        return own_excess[0]
+
+    if (verdict["cause"] != cv_verdict["cause"] and excess2 >= UNEXPLAINED_LEVEL * noise2**2
+            and own_rate_independent_excess() < min(UNEXPLAINED_LEVEL,
+                                                    (1.0 - DECISIVE_SHARE) * excess2 / noise2**2)):
+        # the first record's models miss the second record by far more than its own rate-independent
+        # fit does, and that fit leaves too little for an effect to be decisive: the table measures how
+        # the first record's hysteresis part transfers to another input, and an effect that lowers it
+        # corrects that part by accident
+        # (independent seed 153: a 1.7 ms lag fitted on steps and sines from an unknown history;
+        # the decaying triangle of the second record is missed by 106 σ², which its own fit brings
+        # to a few σ², and creep modes fitted with the first record's hysteresis remove 100 σ² of it).
+        # The cross-validated verdict stands; a tied set is told apart by the second record's own fit
+        standing = (f"; the first record's models miss the second record by {excess2 / noise2**2:.3g} σ² above its "
+                    f"noise, of which its own rate-independent fit leaves {own_rate_independent_excess():.3g} σ²: "
+                    "the second record measures how the first record's hysteresis part transfers to its input, "
+                    f"not the effect, so its verdict ({', '.join(verdict['causes']) or verdict['cause']}) does not "
+                    "replace the cross-validated one")
+        if cv_verdict.get("steps"):
+            # a cause the steps named is still tested on the second record's own hysteresis fit
+            kept, contradicted = _not_contradicted(cv_verdict, mse, ref_val, noise2, raised())
+            if contradicted:
+                standing += (f"; put on the second record's own rate-independent fit, {', '.join(contradicted)} "
+                             f"{'raises' if len(contradicted) == 1 else 'raise'} its error by {NOISE_FRACTION} σ² "
+                             f"or more and {'is' if len(contradicted) == 1 else 'are'} not named")
+                cv_verdict = (dict(cv_verdict, cause=kept[0], causes=tuple(kept)) if kept else
+                              dict(cv_verdict, cause="none", causes=(), best=None))
+        return _with_shape(second_shape, *_validation_result(baseline, richer, candidates, noise2, cv_verdict,
+                                                             standing, False, "cross-validation"))
     shown_by_steps_too = bool(cv_verdict.get("steps") and verdict["cause"] in EFFECTS
                               and verdict["cause"] in cv_verdict["steps"]["removed_share"])
     decisive = (verdict["cause"] in EFFECTS and excess2 >= UNEXPLAINED_LEVEL * noise2**2
                 and ref_val - mse[verdict["cause"]] >= DECISIVE_SHARE * excess2
                 and candidates[verdict["cause"]].mse_um2 <= ref_cv + NOISE_FRACTION * noise1**2
                 and not candidates[verdict["cause"]].significant
-                and _rate_independent_excess(fitter, v2, y2) >= UNEXPLAINED_LEVEL)
+                and own_rate_independent_excess() >= UNEXPLAINED_LEVEL)
     if decisive:
         standing = (f"; the first record shows nothing beyond its noise, but on the second record "
                     f"{verdict['cause']} removes {100 * (ref_val - mse[verdict['cause']]) / excess2:.0f} % of a "
@@ -1403,8 +1606,8 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
                          f"second record's error by {NOISE_FRACTION} σ² or more and {'is' if len(contradicted) == 1 else 'are'} not named")
             cv_verdict = (dict(cv_verdict, cause=kept[0], causes=tuple(kept)) if kept else
                           dict(cv_verdict, cause="none", causes=(), best=None))
-        return _validation_result(baseline, richer, candidates, noise2, cv_verdict, standing, False,
-                                  "cross-validation")
+        return _with_shape(second_shape, *_validation_result(baseline, richer, candidates, noise2, cv_verdict,
+                                                             standing, False, "cross-validation"))
     best = verdict.get("best")
     if (verdict["cause"] == "unexplained" and best is not None and best == cv_verdict["cause"]
             and verdict["significant"].get(best) and candidates[best].significant):
@@ -1430,7 +1633,19 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
                         "cross-validated verdict stands"
                         + (f" without {', '.join(contradicted)}, which raise{'s' if len(contradicted) == 1 else ''} it "
                            f"by {NOISE_FRACTION} σ² or more" if contradicted else ""))
-    return _validation_result(baseline, richer, candidates, noise2, verdict, standing, not quiet, by)
+    return _with_shape(second_shape, *_validation_result(baseline, richer, candidates, noise2, verdict, standing,
+                                                         not quiet, by))
+
+
+def _with_shape(shape: dict, validation: dict, verdict: dict) -> tuple:
+    """The second record's result with its shape evidence (:func:`path_corrected`; {} when none)."""
+    validation["shape"] = shape
+    if shape:
+        validation["note"] += (f"; the second record's input path alone predicts {shape['removed_sigma2']:.3g} σ² "
+                               "of the rate-independent models' error there (a hysteresis shape outside the model "
+                               "class, or the first record's hysteresis part on an input it never showed): every "
+                               "model is scored there after the same path-only correction")
+    return validation, verdict
 
 
 def _not_contradicted(cv_verdict, mse, ref_val, noise2, raised=None):
@@ -1621,7 +1836,12 @@ def _rate_independent_excess(fitter, v2, y2) -> float:
         return math.inf
     error = y2 - own.prediction_um
     noise = noise_sigma(error, quantum(y2))
-    return float(np.mean(error**2)) / noise**2 - 1.0 if noise > 0 else math.inf
+    if not noise > 0:
+        return math.inf
+    # a shape outside the model class is no effect either: what the path alone predicts is not counted
+    shape = path_predicted(error, path_memory(v2), _contiguous_blocks(v2.size))
+    corrected = np.where(np.isfinite(shape), error - shape, error)
+    return float(min(np.mean(error**2), np.mean(corrected**2))) / noise**2 - 1.0
 
 
 def _validation_result(baseline, richer, candidates, noise2, verdict, remark, confirms, by):
