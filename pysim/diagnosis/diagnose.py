@@ -71,6 +71,7 @@ Procedure (``diagnose``):
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -552,13 +553,19 @@ def _cross_validate(fitter: CandidateFitter, family: Family, fit: CandidateFit, 
     return out
 
 
+def _blocked_score(y, prediction, folds) -> tuple:
+    """``(per_block, score)``: the held-out mean-square error of every block (µm²) and their median,
+    the score -- one block whose input the others never showed (a state they cannot predict) does
+    not decide alone."""
+    per_block = [float(np.mean((y[s] - prediction[s]) ** 2)) for _, s in folds if s.size]
+    return per_block, float(np.median(per_block))
+
+
 def _evaluate(fitter, family, fit, folds, character, y, mask) -> Evaluation:
     cv = _cross_validate(fitter, family, fit, folds, y)
     errors = error_measures(y[mask], cv[mask])
-    # the score is the median over the blocks of the held-out mean-square error: one block whose
-    # input the others never showed (a state they cannot predict) does not decide alone
-    per_block = [float(np.mean((y[s] - cv[s]) ** 2)) for _, s in folds if s.size]
-    rms_um = math.sqrt(float(np.median(per_block)))
+    per_block, score = _blocked_score(y, cv, folds)
+    rms_um = math.sqrt(score)
     span = float(np.ptp(y[mask]))
     ev = Evaluation(fit, 100.0 * rms_um / span, errors["max_error_pct"], rms_um,
                     error_measures(y, fit.prediction_um)["rms_error_pct"], cv_prediction_um=cv)
@@ -1046,26 +1053,23 @@ def _contiguous_blocks(n_samples: int, n_blocks: int = N_FOLDS) -> list:
 def _correct_for_shape(evaluations, folds, y, mask, memory, noise_um) -> dict:
     """Apply :func:`path_corrected` to the cross-validated predictions of ``evaluations`` (the first two
     are the rate-independent models); the evidence, or {} when the shape is inside the class."""
-    def per_block(prediction):
-        return [float(np.mean((y[s] - prediction[s]) ** 2)) for _, s in folds if s.size]
-
     found = path_corrected({i: ev.cv_prediction_um for i, ev in enumerate(evaluations)}, y, memory, folds,
-                           lambda p: float(np.median(per_block(p))), noise_um, (0, 1))
+                           lambda p: _blocked_score(y, p, folds)[1], noise_um, (0, 1))
     if found is None:
         return {}
     corrected, evidence = found
     span = float(np.ptp(y[mask]))
     for i, ev in enumerate(evaluations):
         ev.cv_prediction_um = corrected[i]
-        ev.per_block_mse_um2 = per_block(corrected[i])
-        ev.rms_um = math.sqrt(float(np.median(ev.per_block_mse_um2)))
+        ev.per_block_mse_um2, score = _blocked_score(y, corrected[i], folds)
+        ev.rms_um = math.sqrt(score)
         ev.rms_pct = 100.0 * ev.rms_um / span
     return evidence
 
 
-def _correct_validation_for_shape(evaluations, v2, y2, train_range, noise2_um) -> dict:
+def _correct_validation_for_shape(evaluations, v2, y2, train_range, noise2_um, memory2) -> dict:
     """The same on the second record, for the scores of :func:`score_on_record` (the first two
-    evaluations are the rate-independent models)."""
+    evaluations are the rate-independent models; ``memory2``: the second record's path memory)."""
     scored = np.flatnonzero(inside_range(v2, *train_range))
     scored = scored[(scored > 0) & (scored < v2.size - 1)]
     if scored.size < 10:
@@ -1075,7 +1079,7 @@ def _correct_validation_for_shape(evaluations, v2, y2, train_range, noise2_um) -
         return float(np.mean((y2[scored] - prediction[scored]) ** 2))
 
     found = path_corrected({i: ev.validation["prediction_um"] for i, ev in enumerate(evaluations)}, y2,
-                           path_memory(v2), _contiguous_blocks(v2.size), score, noise2_um, (0, 1))
+                           memory2, _contiguous_blocks(v2.size), score, noise2_um, (0, 1))
     if found is None:
         return {}
     corrected, evidence = found
@@ -1509,8 +1513,9 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
         if ev.validation is None:
             ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1)
     noise2 = min(ev.validation["noise_um"] for ev in [baseline, richer, *candidates.values()])
+    memory2 = path_memory(v2)
     second_shape = _correct_validation_for_shape([baseline, richer, *candidates.values()], v2, y2, train_range,
-                                                 noise2)
+                                                 noise2, memory2)
     mse = {c: ev.validation["mse_um2"] for c, ev in candidates.items()}
     ref_val = min(baseline.validation["mse_um2"], richer.validation["mse_um2"])
     ref_cv = min(baseline.mse_um2, richer.mse_um2)
@@ -1541,12 +1546,8 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
             verdict = dict(verdict, cause=winner, causes=tuple(ties), best=best)
     standing, by = "", "second record"
     excess2 = ref_val - noise2**2
-    own_excess = []
-
-    def own_rate_independent_excess():
-        if not own_excess:
-            own_excess.append(_rate_independent_excess(fitter, v2, y2))
-        return own_excess[0]
+    # the second record's own rate-independent fit: identified at most once, only when a rule needs it
+    own_rate_independent_excess = functools.cache(lambda: _rate_independent_excess(fitter, v2, y2, memory2))
 
     if (verdict["cause"] != cv_verdict["cause"] and excess2 >= UNEXPLAINED_LEVEL * noise2**2
             and own_rate_independent_excess() < min(UNEXPLAINED_LEVEL,
@@ -1566,13 +1567,9 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
                     "replace the cross-validated one")
         if cv_verdict.get("steps"):
             # a cause the steps named is still tested on the second record's own hysteresis fit
-            kept, contradicted = _not_contradicted(cv_verdict, mse, ref_val, noise2, raised())
-            if contradicted:
-                standing += (f"; put on the second record's own rate-independent fit, {', '.join(contradicted)} "
-                             f"{'raises' if len(contradicted) == 1 else 'raise'} its error by {NOISE_FRACTION} σ² "
-                             f"or more and {'is' if len(contradicted) == 1 else 'are'} not named")
-                cv_verdict = (dict(cv_verdict, cause=kept[0], causes=tuple(kept)) if kept else
-                              dict(cv_verdict, cause="none", causes=(), best=None))
+            cv_verdict, dropped = _without_contradicted(cv_verdict, mse, ref_val, noise2, raised(),
+                                                        "put on the second record's own rate-independent fit, ")
+            standing += dropped
         return _with_shape(second_shape, *_validation_result(baseline, richer, candidates, noise2, cv_verdict,
                                                              standing, False, "cross-validation"))
     shown_by_steps_too = bool(cv_verdict.get("steps") and verdict["cause"] in EFFECTS
@@ -1599,13 +1596,9 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
         standing = (f"; the first record leaves only {(ref_cv - noise1**2) / noise1**2:.2g} σ² above its noise "
                     "(the candidates' effects were fitted to noise there), so the second record's "
                     f"{verdict['cause']} is not evidence of an effect: diagnose the second record on its own")
-        kept, contradicted = _not_contradicted(cv_verdict, mse, ref_val, noise2, raised())
-        if contradicted:
-            # an effect named near the noise of the first record must not make the second one worse
-            standing += (f"; {', '.join(contradicted)} {'raises' if len(contradicted) == 1 else 'raise'} the "
-                         f"second record's error by {NOISE_FRACTION} σ² or more and {'is' if len(contradicted) == 1 else 'are'} not named")
-            cv_verdict = (dict(cv_verdict, cause=kept[0], causes=tuple(kept)) if kept else
-                          dict(cv_verdict, cause="none", causes=(), best=None))
+        # an effect named near the noise of the first record must not make the second one worse
+        cv_verdict, dropped = _without_contradicted(cv_verdict, mse, ref_val, noise2, raised())
+        standing += dropped
         return _with_shape(second_shape, *_validation_result(baseline, richer, candidates, noise2, cv_verdict,
                                                              standing, False, "cross-validation"))
     best = verdict.get("best")
@@ -1646,6 +1639,20 @@ def _with_shape(shape: dict, validation: dict, verdict: dict) -> tuple:
                                "class, or the first record's hysteresis part on an input it never showed): every "
                                "model is scored there after the same path-only correction")
     return validation, verdict
+
+
+def _without_contradicted(cv_verdict, mse, ref_val, noise2, raised=None, how: str = "") -> tuple:
+    """The cross-validated verdict without the causes the second record contradicts
+    (:func:`_not_contradicted`; ``none`` when all are), and the sentence that says which
+    (``how`` says how they were tested; "" when none is dropped)."""
+    kept, contradicted = _not_contradicted(cv_verdict, mse, ref_val, noise2, raised)
+    if not contradicted:
+        return cv_verdict, ""
+    one = len(contradicted) == 1
+    sentence = (f"; {how}{', '.join(contradicted)} {'raises' if one else 'raise'} the second record's error by "
+                f"{NOISE_FRACTION} σ² or more and {'is' if one else 'are'} not named")
+    return (dict(cv_verdict, cause=kept[0], causes=tuple(kept)) if kept else
+            dict(cv_verdict, cause="none", causes=(), best=None)), sentence
 
 
 def _not_contradicted(cv_verdict, mse, ref_val, noise2, raised=None):
@@ -1817,7 +1824,7 @@ def _told_apart_by_second_record(fitter: CandidateFitter, causes, v2, y2):
     return kept, {c: ev.mse_um2 / noise**2 for c, ev in found.items()}
 
 
-def _rate_independent_excess(fitter, v2, y2) -> float:
+def _rate_independent_excess(fitter, v2, y2, memory2=None) -> float:
     """Mean-square error (in σ² above 1) that the richer rate-independent model
     leaves on the second record when fitted to that record itself.
 
@@ -1827,7 +1834,9 @@ def _rate_independent_excess(fitter, v2, y2) -> float:
     residual was the first record's hysteresis part failing on an input it
     never showed (independent seed 65: 137 σ² under the first record's
     models, 0.99 σ² fitted on its own), and whatever removes it does so by
-    accident.
+    accident.  What the input's path alone predicts of it (a shape outside the
+    model class) is not counted either (``memory2``: the second record's
+    :func:`pysim.diagnosis.path_memory.path_memory`, computed when not given).
     """
     try:
         own = identify(v2, y2, n_operators=fitter.richer_result.model.n_operators, model=fitter.kind,
@@ -1839,7 +1848,7 @@ def _rate_independent_excess(fitter, v2, y2) -> float:
     if not noise > 0:
         return math.inf
     # a shape outside the model class is no effect either: what the path alone predicts is not counted
-    shape = path_predicted(error, path_memory(v2), _contiguous_blocks(v2.size))
+    shape = path_predicted(error, path_memory(v2) if memory2 is None else memory2, _contiguous_blocks(v2.size))
     corrected = np.where(np.isfinite(shape), error - shape, error)
     return float(min(np.mean(error**2), np.mean(corrected**2))) / noise**2 - 1.0
 
