@@ -75,7 +75,7 @@ def test_correction_counts_only_for_a_shape_error():
     noise = rng.normal(0, sigma, v.size)
 
     def score(y):
-        return lambda p: float(np.mean((y - p)[500:] ** 2))
+        return lambda model, p: float(np.mean((y - p)[500:] ** 2))
 
     base = 10 * relays(v)
     # a model that misses the loops entirely (its prediction is the reversible part of the plant)

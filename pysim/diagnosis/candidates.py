@@ -556,10 +556,11 @@ class CandidateFitter:
         absorb part of an effect (a fast record's lag looks like a history),
         which the weights would otherwise have to undo.  The estimate replaces
         the base's only where it fits the whole record better than ``kept``
-        (the family's fit with its present state; fitted here if not given).
+        (the family's fit with its present state; fitted here if not given:
+        IdentificationError when the family cannot be fitted at all).
         """
+        kept = kept or self.fit(family)
         try:
-            kept = kept or self.fit(family)
             estimated = identify(self.operator_input(family), self.y, start_state=family.initial_state,
                                  **self._settings(family))
         except IdentificationError:

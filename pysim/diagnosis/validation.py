@@ -127,8 +127,9 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
     dict with ``rms_pct``, ``max_pct`` (% of the measured range of the scored
     samples), ``mse_um2``, ``offset_um``, ``gain``, ``timing_samples``,
     ``scored_samples``, ``noise_um`` (σ of the residual's white part),
-    ``initial_state_V`` and ``prediction_um`` (after the re-fitted offset,
-    gain and timing).
+    ``initial_state_V``, ``prediction_um`` (after the re-fitted offset,
+    gain and timing) and ``scored_rows`` (the indices of the scored samples;
+    like the prediction, not for a report).
 
     Examples
     --------
@@ -208,4 +209,4 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
             "mse_um2": mse, "offset_um": c, "gain": g, "timing_samples": shift,
             "scored_samples": int(scored.size), "history_modes": int(modes.shape[1]),
             "noise_um": noise_sigma((y - prediction)[scored], quantum(y)),
-            "initial_state_V": [float(s) for s in state], "prediction_um": prediction}
+            "initial_state_V": [float(s) for s in state], "prediction_um": prediction, "scored_rows": scored}
