@@ -1788,11 +1788,10 @@ def _structure_on_both(fitter: CandidateFitter, candidates: dict, causes, y1, v2
     beyond the noise (:func:`advantage_holds`) on at least one, and the first
     record's model of it beats the rate-independent models on the second
     record (``reference_mse2_um2``, the better of their mean-square errors
-    there); a member of a
-    named set that fits both records better than every other member is named
-    alone.  Two records
-    with different inputs that rank the structures alike are evidence that
-    neither record's transfer error can make.
+    there); a member of a named set that fits both records better than every
+    other member is named alone.  Two records with different inputs that rank
+    the structures alike are evidence that neither record's transfer error
+    can make.
 
     Returns ``(winner, {cause: (first_sigma2, second_sigma2)})``, or None when
     no candidate fits both records better than every named cause.
