@@ -1466,8 +1466,9 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     statistics = {"baseline": stats,
                   "extended": residual_statistics((y - extended.prediction_um)[held], v[held], sample_rate_hz,
                                                   noise)}
+    # only the steps named the cause when the second record neither named nor confirmed it
     steps_alone = bool(cv_verdict.get("steps") and validation is not None
-                       and validation["verdict_by"] != "second record")
+                       and validation["verdict_by"] == "cross-validation")
     if (cause == "none" or steps_alone) and validate is not None and not unidentified and not _swap_reason:
         # an effect that the first record's input does not excite (creep that a single sine hides in
         # the loop's shape and a multisine shows) is found only when the second record is the one
