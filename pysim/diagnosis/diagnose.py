@@ -1367,8 +1367,10 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
 
     validation = None
     if validate is not None:
+        # the second record's own fitter: identified at most once, only when a rule fits that record itself
+        second_fitter = functools.cache(lambda: _second_record_fitter(fitter, v2, y2))
         validation, v_verdict = _validate(fitter, baseline, richer, candidates, v, v2, y2, complexity,
-                                          cv_verdict, noise, outranks)
+                                          cv_verdict, noise, outranks, second_fitter)
         validation["source"] = validate_source
         if validation.get("shape"):
             shape["second"] = validation["shape"]
@@ -1388,7 +1390,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
             tied = (verdict["causes"] if len(verdict["causes"]) > 1 else
                     cv_verdict["causes"] if len(cv_verdict["causes"]) > 1 and verdict["cause"] in cv_verdict["causes"]
                     else ())
-            told = _told_apart_by_second_record(fitter, tied, v2, y2) if tied else None
+            told = _told_apart_by_second_record(fitter, tied, v2, y2, second_fitter) if tied else None
             if told is not None:
                 kept, on_second = told
                 if verdict["cause"] in kept:
@@ -1405,7 +1407,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                                   remark=validation["remark"] + remark, note=validation["note"] + remark)
             # look-alike dynamics are told apart by how each structure fits both records in sample
             structure = _structure_on_both(fitter, candidates, verdict["causes"], y, v2, y2, noise,
-                                           min(baseline.validation["mse_um2"], richer.validation["mse_um2"]))
+                                           min(baseline.validation["mse_um2"], richer.validation["mse_um2"]),
+                                           second_fitter)
             if structure is not None:
                 winner, errors = structure
                 named = ", ".join(verdict["causes"])
@@ -1497,7 +1500,8 @@ class _RolesStand(Exception):
     """The second record cannot take the first one's role (it cannot identify the hysteresis)."""
 
 
-def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_verdict, noise1, outranks=None):
+def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_verdict, noise1, outranks=None,
+              second=None):
     """Score every model on the second record; the verdict by that record.
 
     A second record on which the better rate-independent model already
@@ -1522,7 +1526,8 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
     fewest effect parameters, unless the best one's lower error holds across
     both records (``outranks(a, b)`` on the first, :func:`advantage_holds`
     on the second): a resonance near the sample rate ties with a fraction of a
-    sample's delay, and predicts steps worse.
+    sample's delay, and predicts steps worse.  ``second`` builds the second
+    record's own fitter (:func:`_second_record_fitter`) once for every rule.
     """
     train_range = (float(v1.min()), float(v1.max()))
 
@@ -1531,7 +1536,7 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
         # _raised_on_own_hysteresis); any other by the first record's models
         if not cv_verdict.get("steps"):
             return None
-        return _raised_on_own_hysteresis(fitter, candidates, cv_verdict["causes"], v2, y2)
+        return _raised_on_own_hysteresis(fitter, candidates, cv_verdict["causes"], v2, y2, second)
 
     for ev in [baseline, richer, *candidates.values()]:
         if ev.validation is None:
@@ -1642,7 +1647,7 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
         # record confirms the cause when it names it (independent seed 154: creep fitted on a chirp
         # leaves band-limited noise at 38.6 σ² against the plain fit's 42.7; fitted on that record
         # itself, input-driven creep takes its 20.5 σ² above the noise to 0)
-        alone = _second_record_alone(fitter, EFFECTS, v2, y2)
+        alone = _second_record_alone(fitter, EFFECTS, v2, y2, second)
         if alone is not None and alone[0]["cause"] in cv_verdict["causes"]:
             own_verdict, found, own_noise, _ = alone
             confirmed = own_verdict["cause"]
@@ -1711,9 +1716,29 @@ def _not_contradicted(cv_verdict, mse, ref_val, noise2, raised=None):
     return [c for c in cv_verdict["causes"] if c not in contradicted], contradicted
 
 
-def _on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes, v2, y2):
+def _second_record_fitter(fitter: CandidateFitter, v2, y2) -> CandidateFitter | None:
+    """The second record's :class:`CandidateFitter` with the first record's settings (its baseline and
+    richer rate-independent models identified there), or None when that record cannot be identified.
+    ``diagnose`` builds it at most once per second record and hands it to every rule that fits the
+    second record on its own."""
+    try:
+        second = CandidateFitter(v2, y2, fitter.T, n_operators=fitter.n, model=fitter.kind,
+                                 operator=fitter.operator)
+    except IdentificationError:
+        return None
+    second.period_samples = input_period(v2)
+    return second
+
+
+def _second_or_built(second, fitter: CandidateFitter, v2, y2) -> CandidateFitter | None:
+    """``second()`` (the cached builder ``diagnose`` passes), or the second record's fitter built now."""
+    return second() if second is not None else _second_record_fitter(fitter, v2, y2)
+
+
+def _on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes, v2, y2, second=None):
     """The causes' effects, as the first record fitted them, put on the second record's own richer
-    rate-independent model, its linear parameters (and initial state) fitted there.
+    rate-independent model, its linear parameters (and initial state) fitted there (``second``: the
+    builder of the second record's fitter, :func:`_second_record_fitter`).
 
     Returns ``(own_mse_um2, noise_um, {cause: prediction_um})``: the second
     record's own rate-independent fit's mean-square error, its noise and each
@@ -1722,9 +1747,10 @@ def _on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes, v2, y2
     shape comes from the first record), so their in-sample errors compare
     structures, not parameter counts.
     """
+    second = _second_or_built(second, fitter, v2, y2)
+    if second is None:
+        return None
     try:
-        second = CandidateFitter(v2, y2, fitter.T, n_operators=fitter.n, model=fitter.kind,
-                                 operator=fitter.operator)
         base = second.base("richer")
         own = second.fit(base)
     except IdentificationError:
@@ -1745,7 +1771,7 @@ def _on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes, v2, y2
     return float(np.mean((y2 - own.prediction_um) ** 2)), noise, predictions
 
 
-def _raised_on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes, v2, y2) -> dict:
+def _raised_on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes, v2, y2, second=None) -> dict:
     """Cause → how much its effect, as the first record fitted it, raises the second record's
     mean-square error (in that record's noise variances) on the rate-independent part the second
     record fits itself.
@@ -1760,7 +1786,7 @@ def _raised_on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes,
     and without it: in sample, with the same free parameters
     (:func:`_on_own_hysteresis`).
     """
-    found = _on_own_hysteresis(fitter, candidates, causes, v2, y2)
+    found = _on_own_hysteresis(fitter, candidates, causes, v2, y2, second)
     if found is None:
         return {}
     own_mse, noise, predictions = found
@@ -1768,7 +1794,7 @@ def _raised_on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes,
 
 
 def _structure_on_both(fitter: CandidateFitter, candidates: dict, causes, y1, v2, y2, noise1_um: float,
-                       reference_mse2_um2: float):
+                       reference_mse2_um2: float, second=None):
     """The look-alike dynamics that fit *both* records better than every named cause.
 
     A lag after the hysteresis and a low-pass before it (or a delay) that
@@ -1802,7 +1828,7 @@ def _structure_on_both(fitter: CandidateFitter, candidates: dict, causes, y1, v2
     contenders = [c for c in DYNAMICS if c in candidates and (candidates[c].significant or c in causes)]
     if len(contenders) < 2 or not noise1_um > 0:
         return None
-    found = _on_own_hysteresis(fitter, candidates, contenders, v2, y2)
+    found = _on_own_hysteresis(fitter, candidates, contenders, v2, y2, second)
     if found is None:
         return None
     _, noise2, second = found
@@ -1876,21 +1902,19 @@ def _dynamics_where_they_show(fitter, run, reference, candidates, v1, v2, y2, no
     return replaced
 
 
-def _second_record_alone(fitter: CandidateFitter, causes, v2, y2):
+def _second_record_alone(fitter: CandidateFitter, causes, v2, y2, second=None):
     """The second record diagnosed on its own, with ``causes`` only: its rate-independent models and
     every cause's structure fitted there and cross-validated the same way as the first record's.
 
     Returns ``(verdict, found, noise_um, holds)`` -- :func:`decide`'s verdict,
     cause → :class:`Evaluation` on the second record, that record's noise and
     ``holds(a, b)`` (``a``'s lower error than ``b``'s there is more than the
-    noise can make) -- or None when the second record cannot be diagnosed.
+    noise can make) -- or None when the second record cannot be diagnosed (``second``: the builder
+    of its fitter, :func:`_second_record_fitter`).
     """
-    try:
-        second = CandidateFitter(v2, y2, fitter.T, n_operators=fitter.n, model=fitter.kind,
-                                 operator=fitter.operator)
-    except IdentificationError:
+    second = _second_or_built(second, fitter, v2, y2)
+    if second is None:
         return None
-    second.period_samples = input_period(v2)
     folds, mask = _record_folds(v2)
     run = _runner(second, folds, None, y2, mask)
     try:
@@ -1916,7 +1940,7 @@ def _second_record_alone(fitter: CandidateFitter, causes, v2, y2):
     return verdict, found, noise, holds
 
 
-def _told_apart_by_second_record(fitter: CandidateFitter, causes, v2, y2):
+def _told_apart_by_second_record(fitter: CandidateFitter, causes, v2, y2, second=None):
     """The causes of a tied set that the second record, diagnosed on its own, does not rule out.
 
     Every model in the set is fitted on the second record too -- the
@@ -1938,7 +1962,7 @@ def _told_apart_by_second_record(fitter: CandidateFitter, causes, v2, y2):
     variances; None when the second record cannot be diagnosed or rules
     nothing out.
     """
-    alone = _second_record_alone(fitter, causes, v2, y2)
+    alone = _second_record_alone(fitter, causes, v2, y2, second)
     if alone is None:
         return None
     verdict, found, noise, holds = alone
