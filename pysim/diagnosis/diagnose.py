@@ -1425,6 +1425,20 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                                               for c, (e1, e2) in errors.items()},
                                   remark=validation["remark"] + remark, note=validation["note"] + remark)
 
+    named_verdict, delivery_remark = verdict, ""   # the why tells how the causes were named; the delivery is a remark
+    if validation is not None and len(verdict["causes"]) > 1:
+        delivered = _best_predictor_of_set(candidates, tuple(verdict["causes"]), y2, validation["noise_um"])
+        if delivered is not None:
+            member, errors = delivered
+            first = verdict["causes"][0]
+            remark = delivery_remark = (
+                f"; of the set, {member}'s model predicts the second record best ({errors[member]:.3g} σ² against "
+                f"{errors[first]:.3g} σ² for {first}'s, by more than the noise can make), so it is the model "
+                "delivered until the excitation tells the set apart")
+            others = tuple(c for c in verdict["causes"] if c != member)
+            verdict = dict(verdict, cause=member, causes=(member,) + others, delivered_by_prediction=True)
+            validation.update(delivered=member, delivered_sigma2=errors, remark=validation["remark"] + remark,
+                              note=validation["note"] + remark)
     cause, causes = verdict["cause"], verdict["causes"]
     held = split.heldout
     residual = y - baseline.prediction_um
@@ -1437,10 +1451,10 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         extended = Evaluation(baseline.fit, baseline.rms_pct, baseline.max_pct, baseline.rms_um,
                               baseline.train_rms_pct, cv_prediction_um=baseline.cv_prediction_um,
                               character=baseline.character, validation=baseline.validation)
-    why = _why(verdict, cv_verdict, baseline, richer, candidates, noise,
+    why = _why(named_verdict, cv_verdict, baseline, richer, candidates, noise,
                None if unidentified else validation)
     if unidentified:
-        why += f". The record cannot identify the hysteresis: {unidentified}"
+        why += f". The record cannot identify the hysteresis: {unidentified}{delivery_remark}"
     for which, found in shape.items():
         where_found = "the record fitted" if which == "first" else "the second record"
         why += (f". On {where_found} the input's path alone predicts {found['removed_sigma2']:.3g} σ² of what "
@@ -1791,6 +1805,69 @@ def _raised_on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes,
         return {}
     own_mse, noise, predictions = found
     return {c: (float(np.mean((y2 - p) ** 2)) - own_mse) / noise**2 for c, p in predictions.items()}
+
+
+def _best_predictor_of_set(candidates: dict, causes, y2, noise2_um: float):
+    """The member of a named set whose model predicts the second record best, when it does so
+    beyond the noise; None when the first member's model is as good.
+
+    A set names causes that the evidence cannot tell apart; its first member's model is the
+    one delivered (the extended model) until the suggested excitation decides.  The members'
+    models are not equally good predictors, though: fitted on one record, a structure may
+    carry that record's hysteresis part to another input better than its look-alikes do.  The
+    second record measures exactly that, out of sample, so the delivered model is the member
+    that predicts it best -- by at least ``NEAR_NOISE_FRACTION`` σ² on the samples both
+    models were scored on, and by more than the noise can make (:func:`advantage_holds`).
+    The set itself is not changed: which cause it is stays for the excitation to decide.
+
+    Returns
+    -------
+    (member, {cause: mse in σ² on the rows the member and the first share}) or None.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> rng = np.random.default_rng(1)
+    >>> y2 = np.sin(np.arange(4000) / 50.0)
+    >>> noisy = y2 + rng.normal(0.0, 0.01, y2.size)
+    >>> def member(prediction):
+    ...     return SimpleNamespace(validation={"prediction_um": prediction, "scored_rows": np.arange(y2.size)})
+    >>> candidates = {"delay": member(y2 + 0.05), "creep": member(y2.copy())}
+    >>> _best_predictor_of_set(candidates, ("delay", "creep"), noisy, 0.01)[0]
+    'creep'
+    >>> _best_predictor_of_set(candidates, ("creep", "delay"), noisy, 0.01) is None
+    True
+    """
+    first = causes[0]
+    if candidates[first].validation is None:
+        return None
+    s2 = noise2_um ** 2
+
+    def on_rows(c):
+        ev = candidates[c].validation
+        out = np.full(y2.size, np.nan)
+        out[ev["scored_rows"]] = ev["prediction_um"][ev["scored_rows"]]
+        return out
+
+    reference = on_rows(first)
+    gains = {}
+    for c in causes[1:]:
+        if candidates[c].validation is None:
+            continue
+        prediction = on_rows(c)
+        both = np.isfinite(reference) & np.isfinite(prediction)
+        if np.count_nonzero(both) < 100:
+            continue
+        gain = float(np.mean((y2[both] - reference[both]) ** 2) - np.mean((y2[both] - prediction[both]) ** 2))
+        if gain >= NEAR_NOISE_FRACTION * s2 and advantage_holds(y2, reference, prediction):
+            gains[c] = gain
+    if not gains:
+        return None
+    best = max(gains, key=gains.get)
+    prediction = on_rows(best)
+    both = np.isfinite(reference) & np.isfinite(prediction)
+    return best, {c: float(np.mean((y2[both] - p[both]) ** 2)) / s2
+                  for c, p in ((first, reference), (best, prediction))}
 
 
 def _structure_on_both(fitter: CandidateFitter, candidates: dict, causes, y1, v2, y2, noise1_um: float,
