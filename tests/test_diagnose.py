@@ -242,7 +242,12 @@ def test_cli_json_report_and_spec(tmp_path):
     assert {"summary.md", "diagnosis.json", "overview.png", "spectrum.png", "cross_correlation.png",
             "residual_vs_rate.png", "residual_vs_time_since_change.png", "candidates.png", "loops.png"} <= names
     assert all((report / n).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for n in names if n.endswith(".png"))
-    assert "Cause named: `delay`" in (report / "summary.md").read_text(encoding="utf-8")
+    summary = (report / "summary.md").read_text(encoding="utf-8")
+    if len(out["causes"]) > 1:       # a set: the headline names it and the model delivered
+        assert "**Named set: " + ", ".join(f"`{c}`" for c in out["causes"]) in summary
+        assert "the model delivered is `delay`'s" in summary
+    else:
+        assert "**Cause named: `delay`.**" in summary
     model = load_spec(spec)
     assert isinstance(model, ExtendedModel) and model.name == "delayed_plant"
     assert model.stages.delay_samples == pytest.approx(make_case(seed).parameters["delay_samples"], abs=0.05)

@@ -300,8 +300,8 @@ def summary_markdown(d: Diagnosis) -> str:
     lines = [
         f"# Model discrepancy: {d.source or 'record'}",
         "",
-        f"**Cause named: `{d.cause}`.**" + (f" Named set: {', '.join(f'`{c}`' for c in d.causes)}."
-                                            if len(d.causes) > 1 else "") + f" {d.why}.",
+        (f"**Named set: {', '.join(f'`{c}`' for c in d.causes)}; the model delivered is `{d.cause}`'s.**"
+         if len(d.causes) > 1 else f"**Cause named: `{d.cause}`.**") + f" {d.why}.",
         "",
         "| model | cross-validated max error (% of range) | cross-validated RMS error (% of range) |"
         + (" second record RMS (%) |" if d.validation else ""),

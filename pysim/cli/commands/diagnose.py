@@ -111,8 +111,9 @@ def _spec_header(result) -> str:
 
 
 def format_text(result, report, out) -> str:
-    named = result.cause if len(result.causes) <= 1 else f"{result.cause} (set: {', '.join(result.causes)})"
-    lines = [f"{result.source}: cause {named}",
+    named = (f"cause {result.cause}" if len(result.causes) <= 1 else
+             f"causes {', '.join(result.causes)} (a set; model delivered: {result.cause})")
+    lines = [f"{result.source}: {named}",
              f"  {result.why}.",
              "",
              "  cross-validated     max %     RMS %" + ("   second record RMS %" if result.validation else ""),
