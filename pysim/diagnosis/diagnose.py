@@ -1431,14 +1431,15 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         if delivered is not None:
             member, errors = delivered
             first = verdict["causes"][0]
-            remark = delivery_remark = (
+            delivery_remark = (
                 f"; of the set, {member}'s model predicts the second record best ({errors[member]:.3g} σ² against "
                 f"{errors[first]:.3g} σ² for {first}'s, by more than the noise can make), so it is the model "
                 "delivered until the excitation tells the set apart")
             others = tuple(c for c in verdict["causes"] if c != member)
-            verdict = dict(verdict, cause=member, causes=(member,) + others, delivered_by_prediction=True)
-            validation.update(delivered=member, delivered_sigma2=errors, remark=validation["remark"] + remark,
-                              note=validation["note"] + remark)
+            verdict = dict(verdict, cause=member, causes=(member,) + others)
+            validation.update(delivered=member, delivered_sigma2=errors,
+                              remark=validation["remark"] + delivery_remark,
+                              note=validation["note"] + delivery_remark)
     cause, causes = verdict["cause"], verdict["causes"]
     held = split.heldout
     residual = y - baseline.prediction_um
@@ -1850,7 +1851,7 @@ def _best_predictor_of_set(candidates: dict, causes, y2, noise2_um: float):
         return out
 
     reference = on_rows(first)
-    gains = {}
+    better = {}                      # member -> (the first's mse, the member's) on the rows both scored
     for c in causes[1:]:
         if candidates[c].validation is None:
             continue
@@ -1858,16 +1859,13 @@ def _best_predictor_of_set(candidates: dict, causes, y2, noise2_um: float):
         both = np.isfinite(reference) & np.isfinite(prediction)
         if np.count_nonzero(both) < 100:
             continue
-        gain = float(np.mean((y2[both] - reference[both]) ** 2) - np.mean((y2[both] - prediction[both]) ** 2))
-        if gain >= NEAR_NOISE_FRACTION * s2 and advantage_holds(y2, reference, prediction):
-            gains[c] = gain
-    if not gains:
+        first_mse, mse = (float(np.mean((y2[both] - p[both]) ** 2)) for p in (reference, prediction))
+        if first_mse - mse >= NEAR_NOISE_FRACTION * s2 and advantage_holds(y2, reference, prediction):
+            better[c] = (first_mse, mse)
+    if not better:
         return None
-    best = max(gains, key=gains.get)
-    prediction = on_rows(best)
-    both = np.isfinite(reference) & np.isfinite(prediction)
-    return best, {c: float(np.mean((y2[both] - p[both]) ** 2)) / s2
-                  for c, p in ((first, reference), (best, prediction))}
+    best = max(better, key=lambda c: better[c][0] - better[c][1])
+    return best, {first: better[best][0] / s2, best: better[best][1] / s2}
 
 
 def _structure_on_both(fitter: CandidateFitter, candidates: dict, causes, y1, v2, y2, noise1_um: float,
