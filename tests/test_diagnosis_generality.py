@@ -597,6 +597,45 @@ def test_the_model_delivered_for_a_set_is_the_member_that_predicts_the_second_re
     assert rms["delivered"] < 0.7 * rms["plain"], rms
 
 
+def test_an_extension_that_predicts_the_second_record_worse_than_the_plain_fit_is_not_delivered():
+    """Truth (the independent generator's pair 239): a 96 V/ms slew limit before the hysteresis,
+    fitted on steps and sines from an unknown history that move the operators only up to 45 V of
+    150 V, validated on band-limited noise that never reaches the slew limit.  The steps name the
+    slew limit, but its model's hysteresis part, fitted together with it, extrapolates the unexcited
+    range differently from the plain fit's and predicts the second record far worse.  The cause
+    stays named; the model delivered is the plain fit.  The third record (a decaying triangle; never given)
+    shows that this was right: the slew model predicts it worse than the plain fit (2.07x its RMS
+    error before this rule, when the slew model was delivered), the model delivered does not."""
+    import json
+
+    import independent_records
+
+    from pysim.cli.commands.diagnose import _spec_header, format_text
+    from pysim.diagnosis.report import summary_markdown
+
+    pair = independent_records.make_pair(239)
+    assert pair.truth.effect == "slew_limit"
+    d = _validated(pair)
+    assert d.cause == "slew_limit" and d.withheld == "slew_limit", d.why
+    assert d.extended.model is d.baseline.model and d.validation["delivered"] == "baseline"
+    errors = d.validation["withheld_sigma2"]
+    assert errors["slew_limit"] > errors["baseline"] + 1.0, errors
+    assert "the model delivered is the plain fit" in d.why
+    test = pair.test
+    rms = {}
+    for label, model in (("plain", d.baseline.model), ("slew model", d.candidates["slew_limit"].model),
+                         ("delivered", d.extended.model)):
+        error = (model.simulate(test.voltage_V) - test.clean_um)[test.settle_samples:]
+        rms[label] = float(np.sqrt(np.mean(error**2)))
+    assert rms["slew model"] > 1.2 * rms["plain"] and rms["delivered"] <= rms["plain"], rms
+    # every output says what is delivered, and the JSON keeps its format
+    assert "the model delivered is the plain fit" in summary_markdown(d)
+    assert "(model delivered: the plain fit)" in format_text(d, None, None)
+    assert _spec_header(d).startswith("Plain MPI model (slew_limit named")
+    report = json.loads(json.dumps(d.as_json()))
+    assert report["extended"]["cause"] == "baseline" and report["evidence"]["validation"]["withheld"] == "slew_limit"
+
+
 def test_an_effect_the_second_records_own_fit_cannot_take_is_left_out_there(plant, monkeypatch):
     """A candidate whose structure the second record cannot identify (the independent generator's
     pair 207: an input low-pass of 0.21 s fitted on a multisine made the second record's regressors

@@ -378,6 +378,12 @@ class Diagnosis:
         return self.extended.gain_pct
 
     @property
+    def withheld(self) -> str:
+        """The named cause whose model is not delivered because it predicts the second record
+        worse than the plain fit (``extended`` is then the baseline); "" otherwise."""
+        return (self.validation or {}).get("withheld", "")
+
+    @property
     def heldout_span_um(self) -> float:
         return float(np.ptp(self.displacement_um[self.split.heldout]))
 
@@ -1444,18 +1450,33 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     held = split.heldout
     residual = y - baseline.prediction_um
     stats = residual_statistics(residual[held], v[held], sample_rate_hz, noise)
-    if cause in EFFECTS:
-        extended = candidates[cause]
-    elif cause == "unexplained" and verdict["best"] is not None:
-        extended = candidates[verdict["best"]]
-    else:
-        extended = Evaluation(baseline.fit, baseline.rms_pct, baseline.max_pct, baseline.rms_um,
-                              baseline.train_rms_pct, cv_prediction_um=baseline.cv_prediction_um,
-                              character=baseline.character, validation=baseline.validation)
+    plain = Evaluation(baseline.fit, baseline.rms_pct, baseline.max_pct, baseline.rms_um, baseline.train_rms_pct,
+                       cv_prediction_um=baseline.cv_prediction_um, character=baseline.character,
+                       validation=baseline.validation)
+    extended = (candidates[cause] if cause in EFFECTS else
+                candidates[verdict["best"]] if cause == "unexplained" and verdict["best"] is not None else plain)
+    withheld_remark = ""
+    # an extension fitted with its own hysteresis part may carry that part to a new input worse than
+    # the plain fit does (operators the first record barely moves, a range it never reaches): one that
+    # predicts the second record worse is not a better model of the actuator, so it is not delivered
+    # (the cause it names still stands)
+    misleads = (_predicts_second_record_better(extended, baseline, y2, validation["noise_um"])
+                if validation is not None and extended is not plain else None)
+    if misleads is not None:
+        withheld_remark = (
+            f". {extended.cause}'s model, fitted on the first record, predicts the second record worse than the "
+            f"plain fit ({misleads[0]:.3g} σ² against {misleads[1]:.3g} σ², by more than the noise can make): its "
+            "hysteresis part, fitted together with the effect, does not carry to a new input, so the model "
+            f"delivered is the plain fit; fit {extended.cause} again on a record that moves the whole range")
+        validation.update(delivered="baseline", withheld=extended.cause,
+                          withheld_sigma2={extended.cause: misleads[0], "baseline": misleads[1]},
+                          note=validation["note"] + withheld_remark.replace(". ", "; ", 1))
+        extended = plain
     why = _why(named_verdict, cv_verdict, baseline, richer, candidates, noise,
                None if unidentified else validation)
     if unidentified:
         why += f". The record cannot identify the hysteresis: {unidentified}{delivery_remark}"
+    why += withheld_remark
     for which, found in shape.items():
         where_found = "the record fitted" if which == "first" else "the second record"
         why += (f". On {where_found} the input's path alone predicts {found['removed_sigma2']:.3g} σ² of what "
@@ -1808,6 +1829,46 @@ def _raised_on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes,
     return {c: (float(np.mean((y2 - p) ** 2)) - own_mse) / noise**2 for c, p in predictions.items()}
 
 
+def _predicts_second_record_better(reference, candidate, y2, noise2_um: float):
+    """``(reference's, candidate's)`` mean-square errors on the second record, in σ², when the
+    candidate's prediction of that record is the better one -- by at least ``NEAR_NOISE_FRACTION``
+    σ² on the samples both were scored on, and by more than the noise can make
+    (:func:`advantage_holds`); None otherwise (also when one was not scored, or they share fewer
+    than 100 scored samples).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as Scored
+    >>> k = np.arange(5000)
+    >>> triangle = np.abs(k % 400 - 200) / 20.0                     # µm
+    >>> measured = triangle + np.random.default_rng(3).normal(0.0, 0.02, k.size)
+    >>> plain = Scored(validation={"prediction_um": triangle - 0.1, "scored_rows": k})
+    >>> extended = Scored(validation={"prediction_um": triangle.copy(), "scored_rows": k[500:]})
+    >>> [round(e, 1) for e in _predicts_second_record_better(plain, extended, measured, 0.02)]
+    [26.0, 1.0]
+    >>> _predicts_second_record_better(extended, plain, measured, 0.02) is None
+    True
+    """
+    if reference.validation is None or candidate.validation is None:
+        return None
+
+    def on_rows(ev):
+        out = np.full(y2.size, np.nan)
+        rows = ev.validation["scored_rows"]
+        out[rows] = ev.validation["prediction_um"][rows]
+        return out
+
+    a, b = on_rows(reference), on_rows(candidate)
+    both = np.isfinite(a) & np.isfinite(b)
+    if np.count_nonzero(both) < 100:
+        return None
+    a_mse, b_mse = (float(np.mean((y2[both] - p[both]) ** 2)) for p in (a, b))
+    s2 = noise2_um ** 2
+    if a_mse - b_mse >= NEAR_NOISE_FRACTION * s2 and advantage_holds(y2[both], a[both], b[both]):
+        return a_mse / s2, b_mse / s2
+    return None
+
+
 def _best_predictor_of_set(candidates: dict, causes, y2, noise2_um: float):
     """The member of a named set whose model predicts the second record best, when it does so
     beyond the noise; None when the first member's model is as good.
@@ -1840,32 +1901,15 @@ def _best_predictor_of_set(candidates: dict, causes, y2, noise2_um: float):
     True
     """
     first = causes[0]
-    if candidates[first].validation is None:
-        return None
-    s2 = noise2_um ** 2
-
-    def on_rows(c):
-        ev = candidates[c].validation
-        out = np.full(y2.size, np.nan)
-        out[ev["scored_rows"]] = ev["prediction_um"][ev["scored_rows"]]
-        return out
-
-    reference = on_rows(first)
-    better = {}                      # member -> (the first's mse, the member's) on the rows both scored
+    better = {}                      # member -> (the first's σ², the member's) on the rows both scored
     for c in causes[1:]:
-        if candidates[c].validation is None:
-            continue
-        prediction = on_rows(c)
-        both = np.isfinite(reference) & np.isfinite(prediction)
-        if np.count_nonzero(both) < 100:
-            continue
-        first_mse, mse = (float(np.mean((y2[both] - p[both]) ** 2)) for p in (reference, prediction))
-        if first_mse - mse >= NEAR_NOISE_FRACTION * s2 and advantage_holds(y2, reference, prediction):
-            better[c] = (first_mse, mse)
+        found = _predicts_second_record_better(candidates[first], candidates[c], y2, noise2_um)
+        if found is not None:
+            better[c] = found
     if not better:
         return None
     best = max(better, key=lambda c: better[c][0] - better[c][1])
-    return best, {first: better[best][0] / s2, best: better[best][1] / s2}
+    return best, {first: better[best][0], best: better[best][1]}
 
 
 def _structure_on_both(fitter: CandidateFitter, candidates: dict, causes, y1, v2, y2, noise1_um: float,

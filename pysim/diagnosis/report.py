@@ -91,10 +91,17 @@ def _shade(ax, d: Diagnosis):
         ax.axvspan(t[0], t[d.split.warmup], color="0.97", zorder=0, lw=0, hatch="//", ec="0.85")
 
 
+def _explaining(d: Diagnosis):
+    """The extended model whose residual the plots show: the one delivered, or the named cause's
+    when its model was held back (it explains the record fitted, and predicts the second worse)."""
+    return d.candidates[d.withheld] if d.withheld else d.extended
+
+
 def _labels(d: Diagnosis):
     return (f"baseline MPI (cross-validated RMS {d.baseline.rms_pct:.3g} %)",
-            f"extended: {d.extended.cause if d.cause != 'none' else 'none (= baseline)'} "
-            f"(cross-validated RMS {d.extended.rms_pct:.3g} %)")
+            f"extended: {_explaining(d).cause if d.cause != 'none' else 'none (= baseline)'} "
+            + ("(not delivered; " if d.withheld else "(")
+            + f"cross-validated RMS {_explaining(d).rms_pct:.3g} %)")
 
 
 def plot_overview(d: Diagnosis, path: Path):
@@ -107,12 +114,14 @@ def plot_overview(d: Diagnosis, path: Path):
     axes[0].plot(t, d.voltage_V, color="0.3", lw=0.8)
     axes[0].set_ylabel("voltage (V)")
     axes[0].set_title(f"{Path(d.source).name if d.source else 'record'}: cause named {d.cause}, "
-                      f"cross-validated gain {d.gain_pct:.1f} %\n(models fitted on the whole record; every "
+                      f"cross-validated gain {_explaining(d).gain_pct:.1f} %"
+                      + (" (its model is not delivered)" if d.withheld else "")
+                      + "\n(models fitted on the whole record; every "
                       f"block is held out in turn for the scores, grey: the last block)", fontsize=10)
     axes[1].plot(t, d.displacement_um, color=MEASURED_COLOUR, lw=0.8, label="measured")
     axes[1].plot(t, d.baseline.prediction_um, color=BASE_COLOUR, lw=0.8, ls="--", label=base_label)
     if d.cause != "none":
-        axes[1].plot(t, d.extended.prediction_um, color=EXTENDED_COLOUR, lw=0.8, ls=":", label=ext_label)
+        axes[1].plot(t, _explaining(d).prediction_um, color=EXTENDED_COLOUR, lw=0.8, ls=":", label=ext_label)
     axes[1].set_ylabel("displacement (µm)")
     axes[1].legend(loc="upper right", fontsize=8)
     base_res = d.displacement_um - d.baseline.prediction_um
@@ -120,7 +129,7 @@ def plot_overview(d: Diagnosis, path: Path):
     axes[2].plot(t, base_res, color=BASE_COLOUR, lw=0.4, alpha=0.25)
     axes[2].plot(t, _smooth(base_res, window), color=BASE_COLOUR, lw=1.0, label="residual, baseline")
     if d.cause != "none":
-        ext_res = d.displacement_um - d.extended.prediction_um
+        ext_res = d.displacement_um - _explaining(d).prediction_um
         axes[2].plot(t, ext_res, color=EXTENDED_COLOUR, lw=0.4, alpha=0.25)
         axes[2].plot(t, _smooth(ext_res, window), color=EXTENDED_COLOUR, lw=1.0, label="residual, extended")
     for sign in (-2, 2):
@@ -144,22 +153,22 @@ def plot_loops(d: Diagnosis, path: Path):
     axes[0].plot(v, y, color=MEASURED_COLOUR, lw=0.8, label="measured")
     axes[0].plot(v, d.baseline.prediction_um[held], color=BASE_COLOUR, lw=0.8, ls="--", label=base_label)
     if d.cause != "none":
-        axes[0].plot(v, d.extended.prediction_um[held], color=EXTENDED_COLOUR, lw=0.8, ls=":",
+        axes[0].plot(v, _explaining(d).prediction_um[held], color=EXTENDED_COLOUR, lw=0.8, ls=":",
                      label=ext_label)
     axes[0].set_xlabel("voltage (V)")
     axes[0].set_ylabel("displacement (µm)")
     axes[0].set_title("held-out loops", fontsize=10)
     axes[0].legend(fontsize=8)
     window = _smoothing_window(d)
-    for model, colour, label in ((d.baseline, BASE_COLOUR, "baseline"), (d.extended, EXTENDED_COLOUR, "extended")):
-        if model is d.extended and d.cause == "none":
+    for model, colour, label in ((d.baseline, BASE_COLOUR, "baseline"), (_explaining(d), EXTENDED_COLOUR, "extended")):
+        if model is _explaining(d) and d.cause == "none":
             continue
         residual = (d.displacement_um - model.prediction_um)
         axes[1].plot(v, _smooth(residual, window)[held], color=colour, lw=0.8, label=label)
     axes[1].set_xlabel("voltage (V)")
     axes[1].set_ylabel("measured − model (µm)")
     axes[1].set_title("held-out residual against the input"
-                      + (f" (moving average of {window} samples)" if window > 1 else ""), fontsize=10)
+                      + (f"\n(moving average of {window} samples)" if window > 1 else ""), fontsize=10)
     axes[1].legend(fontsize=8)
     fig.savefig(path)
 
@@ -177,7 +186,7 @@ def plot_rate(d: Diagnosis, path: Path):
     held = d.split.heldout
     rate = np.gradient(d.voltage_V, d.sample_period_s)[held]
     base = (d.displacement_um - d.baseline.prediction_um)[held]
-    ext = (d.displacement_um - d.extended.prediction_um)[held]
+    ext = (d.displacement_um - _explaining(d).prediction_um)[held]
     pick = _thin(rate.size)
     ax.scatter(rate[pick], base[pick], s=3, color=BASE_COLOUR, alpha=0.25, lw=0)
     lo, hi = np.percentile(rate, [0.5, 99.5])
@@ -203,7 +212,7 @@ def plot_time_since_change(d: Diagnosis, path: Path):
     tolerance = 0.005 * float(np.ptp(v)) if np.ptp(v) > 0 else 0.0
     elapsed, sign = time_since_change(v, d.sample_period_s, tolerance)
     base = (d.displacement_um - d.baseline.prediction_um)[held] * sign
-    ext = (d.displacement_um - d.extended.prediction_um)[held] * sign
+    ext = (d.displacement_um - _explaining(d).prediction_um)[held] * sign
     ok = np.isfinite(elapsed) & (elapsed > 0)
     if np.count_nonzero(ok) > 10:
         pick = _thin(np.count_nonzero(ok))
@@ -234,8 +243,8 @@ def plot_cross_correlation(d: Diagnosis, path: Path):
     max_lag = int(min(v.size // 4, max(10, round(0.05 * v.size))))
     for ax, signal, name in ((axes[0], v, "input v"), (axes[1], rate, "input rate dv/dt")):
         for model, colour, label in ((d.baseline, BASE_COLOUR, "baseline"),
-                                     (d.extended, EXTENDED_COLOUR, "extended")):
-            if model is d.extended and d.cause == "none":
+                                     (_explaining(d), EXTENDED_COLOUR, "extended")):
+            if model is _explaining(d) and d.cause == "none":
                 continue
             lags, rho = cross_correlation((d.displacement_um - model.prediction_um)[held], signal, max_lag)
             ax.plot(lags * d.sample_period_s * 1e3, rho, color=colour, lw=1, label=label)
@@ -253,8 +262,8 @@ def plot_spectrum(d: Diagnosis, path: Path):
     ax = fig.subplots()
     held = d.split.heldout
     fs = 1.0 / d.sample_period_s
-    for model, colour, label in ((d.baseline, BASE_COLOUR, "baseline"), (d.extended, EXTENDED_COLOUR, "extended")):
-        if model is d.extended and d.cause == "none":
+    for model, colour, label in ((d.baseline, BASE_COLOUR, "baseline"), (_explaining(d), EXTENDED_COLOUR, "extended")):
+        if model is _explaining(d) and d.cause == "none":
             continue
         f, p = spectrum((d.displacement_um - model.prediction_um)[held], fs)
         ax.loglog(f[1:], p[1:], color=colour, lw=1, label=f"residual, {label}")
@@ -300,8 +309,10 @@ def summary_markdown(d: Diagnosis) -> str:
     lines = [
         f"# Model discrepancy: {d.source or 'record'}",
         "",
-        (f"**Named set: {', '.join(f'`{c}`' for c in d.causes)}; the model delivered is `{d.cause}`'s.**"
-         if len(d.causes) > 1 else f"**Cause named: `{d.cause}`.**") + f" {d.why}.",
+        (f"**Named set: {', '.join(f'`{c}`' for c in d.causes)}; the model delivered is "
+         + ("the plain fit.**" if d.withheld else f"`{d.cause}`'s.**")
+         if len(d.causes) > 1 else f"**Cause named: `{d.cause}`"
+         + ("; the model delivered is the plain fit.**" if d.withheld else ".**")) + f" {d.why}.",
         "",
         "| model | cross-validated max error (% of range) | cross-validated RMS error (% of range) |"
         + (" second record RMS (%) |" if d.validation else ""),
@@ -312,8 +323,9 @@ def summary_markdown(d: Diagnosis) -> str:
         lines.append(f"| {label} | {mx:.3f} | {rms:.3f} |" + (f" {val:.3f} |" if val is not None else ""))
     lines += [
         "",
-        f"Extended model: `{d.extended.cause}`; gain **{d.gain_pct:.1f} %** less cross-validated RMS error "
-        "than the baseline (`100 (1 − rms_after / rms_before)`)"
+        (f"Model delivered: the plain fit (`{d.withheld}`'s model predicts the second record worse)" if d.withheld
+         else f"Extended model: `{d.extended.cause}`; gain **{d.gain_pct:.1f} %** less cross-validated RMS error "
+         "than the baseline (`100 (1 − rms_after / rms_before)`)")
         + (f"; on the responses to {d.steps['windows']} step(s) into holds, each left out of its fit, it removes "
            f"**{100 * d.steps['removed_share'][d.extended.cause]:.0f} %** of the "
            f"{d.steps['excess_sigma2']:.3g} σ² the rate-independent model leaves above the noise there."

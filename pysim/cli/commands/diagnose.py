@@ -102,7 +102,9 @@ def _spec_header(result) -> str:
     note = (f"\nThe named cause is an input stage ({stage.kind}, {stage.parameter:.6g}) before the hysteresis; "
             "a spec holds only the hysteresis and output stages, so it is not part of this file."
             if stage is not m else "")
-    return (f"MPI model with output stages ({result.cause}) identified from {Path(result.source).name} by "
+    what = (f"Plain MPI model ({result.withheld} named; its model predicts the second record worse)"
+            if result.withheld else f"MPI model with output stages ({result.cause})")
+    return (f"{what} identified from {Path(result.source).name} by "
             f"pysim diagnose.\n\nHeld-out errors (% of range): baseline max {result.baseline.max_pct:.3f}, "
             f"RMS {result.baseline.rms_pct:.3f}; extended max {result.extended.max_pct:.3f}, RMS "
             f"{result.extended.rms_pct:.3f} (gain {result.gain_pct:.1f} %).\n"
@@ -111,8 +113,10 @@ def _spec_header(result) -> str:
 
 
 def format_text(result, report, out) -> str:
-    named = (f"cause {result.cause}" if len(result.causes) <= 1 else
-             f"causes {', '.join(result.causes)} (a set; model delivered: {result.cause})")
+    named = (f"cause {result.cause}" + (" (model delivered: the plain fit)" if result.withheld else "")
+             if len(result.causes) <= 1 else
+             f"causes {', '.join(result.causes)} (a set; model delivered: "
+             f"{'the plain fit' if result.withheld else result.cause})")
     lines = [f"{result.source}: {named}",
              f"  {result.why}.",
              "",
@@ -125,7 +129,9 @@ def format_text(result, report, out) -> str:
     by_steps = (f"; on the responses to {steps['windows']} step(s) into holds it removes "
                 f"{100 * steps['removed_share'][result.extended.cause]:.0f} % of the excess"
                 if steps and result.extended.cause in steps["removed_share"] else "")
-    lines += [f"  extended ({result.extended.cause}): gain {result.gain_pct:.1f} % (cross-validated){by_steps}",
+    lines += [f"  extended ({result.extended.cause}): gain {result.gain_pct:.1f} % (cross-validated){by_steps}"
+              if not result.withheld else
+              f"  delivered: the plain fit ({result.withheld}'s model predicts the second record worse)",
               "", "  candidates:"]
     for cause, text in result.reasons.items():
         lines.append(f"    {cause}: {text}")
