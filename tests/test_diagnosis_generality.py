@@ -636,6 +636,46 @@ def test_an_extension_that_predicts_the_second_record_worse_than_the_plain_fit_i
     assert report["extended"]["cause"] == "baseline" and report["evidence"]["validation"]["withheld"] == "slew_limit"
 
 
+def test_a_first_record_that_misses_part_of_the_range_hands_the_fit_to_the_second():
+    """Truth (the independent generator's pair 9, forced to a 1.3 ms lag after the hysteresis, at
+    10 kHz): the first record is played on that actuator after an unknown history (up to the top,
+    down to the middle) and only moves between 15 % and 99 % of the range (steps into holds, then
+    sines); the second record, the pair's own, covers all of it.  Fitted on the first, every model
+    extrapolates over 16 % of the range, and the second record's scoring leaves that part out,
+    so nothing tested it: the lag's model predicted the third record (never given, full range)
+    at 4x the noise σ.  The record that covers both is fitted now, and the lag is named there; its
+    model predicts the third record inside the noise."""
+    import independent_records
+
+    from pysim.diagnosis.diagnose import range_beyond_first
+
+    pair = independent_records.make_pair(9, effect="rate_dependence")
+    fs = pair.train.sample_rate_hz
+    lo, hi = pair.truth.plant["voltage_range_V"]
+    span = hi - lo
+
+    def held(levels, seconds):
+        return np.concatenate([np.full(int(seconds * fs), level) for level in levels])
+
+    history = np.concatenate([np.linspace(lo, hi, int(0.5 * fs)), np.linspace(hi, lo + 0.5 * span, int(0.3 * fs))])
+    bottom, top = lo + 0.15 * span, lo + 0.99 * span
+    t = np.arange(int(2.0 * fs)) / fs
+    sines = np.concatenate([(top + bottom) / 2 + (top - bottom) / 2 * np.sin(2 * np.pi * f * t)
+                            for f in (1.0, 5.0, 20.0)])
+    played = independent_records.respond(
+        pair, np.concatenate([history, held([lo + 0.5 * span, top, bottom, lo + 0.7 * span, lo + 0.35 * span], 0.6),
+                              sines]), noise_seed=5)
+    v1, y1 = played.voltage_V[history.size:], played.displacement_um[history.size:]
+    other = pair.validation
+    assert range_beyond_first(v1, other.voltage_V) > 0.15
+    d = diagnose(v1, y1, fs, validate=(other.voltage_V, other.displacement_um, fs))
+    assert d.records_swapped and "would extrapolate over 16 % of that range" in d.swap_reason, d.why
+    assert "rate_dependence" in d.causes, d.why
+    test = pair.test
+    error = (d.extended.model.simulate(test.voltage_V) - test.clean_um)[test.settle_samples:]
+    assert float(np.sqrt(np.mean(error**2))) < pair.truth.noise_sigma_um, d.why
+
+
 def test_an_effect_the_second_records_own_fit_cannot_take_is_left_out_there(plant, monkeypatch):
     """A candidate whose structure the second record cannot identify (the independent generator's
     pair 207: an input low-pass of 0.21 s fitted on a multisine made the second record's regressors

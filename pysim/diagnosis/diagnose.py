@@ -67,7 +67,10 @@ Procedure (``diagnose``):
    σ² too, the second record is diagnosed on its own, and the cross-validated
    cause stands if it names it (:func:`_second_record_alone`).  Look-alike
    dynamics (``DYNAMICS``) are finally told apart by how each structure fits
-   both records in sample (:func:`_structure_on_both`).  Without a second record, a split of
+   both records in sample (:func:`_structure_on_both`).  A second record whose input covers the
+   first's range and reaches beyond it by more than ``WIDER_RANGE_SHARE`` of the range both span
+   (:func:`range_beyond_first`) is the one fitted, the first scored, when it names an effect: fitted
+   on the narrower record every model would extrapolate where nothing scores it.  Without a second record, a split of
    different character (train on the slowest blocks, score on the fastest) is
    reported beside the cross-validation.
 6. **Gain**: cross-validated max and RMS error (% of the measured range of
@@ -130,6 +133,9 @@ DYNAMICS = ("rate_dependence", "delay", "rate_dependent_hysteresis", "slew_limit
 SETTLE_MIN_SAMPLES = 20
 SETTLE_FRACTION = 0.01
 DEFAULT_TRAIN_FRACTION = 0.65
+#: A second record whose input covers the first's range and reaches beyond it by more than this
+#: share of the range both span together is the one the models are fitted on (when it names an effect).
+WIDER_RANGE_SHARE = 0.10
 _PERIODIC_CORRELATION = 0.9
 
 
@@ -489,6 +495,31 @@ def _plain(value):
 
 
 # -------------------------------------------------------------- folds
+
+def range_beyond_first(voltage1_V, voltage2_V) -> float:
+    """Share of the input range that two records span together which only the second reaches,
+    when the second covers all of the first's (to 0.1 % of that span); 0 otherwise.
+
+    Models fitted on the first record extrapolate there: its operators never moved that far, and
+    scoring on the second record leaves those samples out, so nothing would test them.
+
+    Examples
+    --------
+    >>> range_beyond_first([20.0, 80.0, 150.0], [0.0, 149.9, 60.0])
+    0.13333333333333333
+    >>> range_beyond_first([0.0, 150.0], [10.0, 140.0]), range_beyond_first([20.0, 150.0], [0.0, 120.0])
+    (0.0, 0.0)
+    """
+    a, b = np.asarray(voltage1_V, dtype=float), np.asarray(voltage2_V, dtype=float)
+    low, high = min(a.min(), b.min()), max(a.max(), b.max())
+    span = high - low
+    if not span > 0:
+        return 0.0
+    tolerance = 1e-3 * span
+    if b.min() > a.min() + tolerance or b.max() < a.max() - tolerance:
+        return 0.0
+    return float((max(0.0, a.min() - b.min()) + max(0.0, b.max() - a.max())) / span)
+
 
 def make_folds(voltage_V, n_folds: int = N_FOLDS, min_block: int = 200, settle: int = 0) -> list:
     """Contiguous blocks and, for each, the samples scored when it is held out.
@@ -1293,6 +1324,21 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         if swapped is not None:
             return swapped
 
+    turn_tried = False
+    beyond = range_beyond_first(given[0], v2) if validate is not None and not _swap_reason else 0.0
+    if beyond > WIDER_RANGE_SHARE:
+        # fitted here, every model would extrapolate over part of the range the second record shows
+        # (a record that starts after an unknown history may never return to the bottom), and the
+        # scoring there leaves that part out: the record that covers both is fitted, when it names an
+        # effect (otherwise this record may show one that the wider record's input does not excite)
+        first, second = source or "the first record", validate_source or "the second record"
+        turn_tried = True
+        swapped = in_turn(f"{first} reaches only {given[0].min():.4g} to {given[0].max():.4g} V of the "
+                          f"{v2.min():.4g} to {v2.max():.4g} V that {second} covers (models fitted on {first} "
+                          f"would extrapolate over {100 * beyond:.0f} % of that range)")
+        if swapped is not None and swapped.cause in EFFECTS:
+            return swapped
+
     run = _runner(fitter, folds, character, y, mask)
 
     try:
@@ -1508,7 +1554,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     # only the steps named the cause when the second record neither named nor confirmed it
     steps_alone = bool(cv_verdict.get("steps") and validation is not None
                        and validation["verdict_by"] == "cross-validation")
-    if (cause == "none" or steps_alone) and validate is not None and not unidentified and not _swap_reason:
+    if ((cause == "none" or steps_alone) and validate is not None and not unidentified and not _swap_reason
+            and not turn_tried):
         # an effect that the first record's input does not excite (creep that a single sine hides in
         # the loop's shape and a multisine shows) is found only when the second record is the one
         # fitted and cross-validated; its verdict must then hold on the first record, by the same rules.
