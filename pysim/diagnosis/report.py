@@ -160,7 +160,8 @@ def plot_loops(d: Diagnosis, path: Path):
     axes[0].set_title("held-out loops", fontsize=10)
     axes[0].legend(fontsize=8)
     window = _smoothing_window(d)
-    for model, colour, label in ((d.baseline, BASE_COLOUR, "baseline"), (_explaining(d), EXTENDED_COLOUR, "extended")):
+    for model, colour, label in ((d.baseline, BASE_COLOUR, "baseline"),
+                                 (_explaining(d), EXTENDED_COLOUR, "extended")):
         if model is _explaining(d) and d.cause == "none":
             continue
         residual = (d.displacement_um - model.prediction_um)
@@ -262,7 +263,8 @@ def plot_spectrum(d: Diagnosis, path: Path):
     ax = fig.subplots()
     held = d.split.heldout
     fs = 1.0 / d.sample_period_s
-    for model, colour, label in ((d.baseline, BASE_COLOUR, "baseline"), (_explaining(d), EXTENDED_COLOUR, "extended")):
+    for model, colour, label in ((d.baseline, BASE_COLOUR, "baseline"),
+                                 (_explaining(d), EXTENDED_COLOUR, "extended")):
         if model is _explaining(d) and d.cause == "none":
             continue
         f, p = spectrum((d.displacement_um - model.prediction_um)[held], fs)
