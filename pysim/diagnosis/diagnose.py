@@ -498,7 +498,8 @@ def _plain(value):
 
 def range_beyond_first(voltage1_V, voltage2_V) -> float:
     """Share of the input range that two records span together which only the second reaches,
-    when the second covers all of the first's (to 0.1 % of that span); 0 otherwise.
+    when the second covers all of the first's (:func:`~pysim.diagnosis.validation.inside_range`:
+    to 0.1 % of its span); 0 otherwise.
 
     Models fitted on the first record extrapolate there: its operators never moved that far, and
     scoring on the second record leaves those samples out, so nothing would test them.
@@ -515,8 +516,7 @@ def range_beyond_first(voltage1_V, voltage2_V) -> float:
     span = high - low
     if not span > 0:
         return 0.0
-    tolerance = 1e-3 * span
-    if b.min() > a.min() + tolerance or b.max() < a.max() - tolerance:
+    if not inside_range([a.min(), a.max()], b.min(), b.max()).all():
         return 0.0
     return float((max(0.0, a.min() - b.min()) + max(0.0, b.max() - a.max())) / span)
 
@@ -1501,7 +1501,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                        validation=baseline.validation)
     extended = (candidates[cause] if cause in EFFECTS else
                 candidates[verdict["best"]] if cause == "unexplained" and verdict["best"] is not None else plain)
-    withheld_remark = ""
+    withheld_sentence = ""
     # an extension fitted with its own hysteresis part may carry that part to a new input worse than
     # the plain fit does (operators the first record barely moves, a range it never reaches): one that
     # predicts the second record worse is not a better model of the actuator, so it is not delivered
@@ -1509,20 +1509,21 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     misleads = (_predicts_second_record_better(extended, baseline, y2, validation["noise_um"])
                 if validation is not None and extended is not plain else None)
     if misleads is not None:
-        withheld_remark = (
-            f". {extended.cause}'s model, fitted on the first record, predicts the second record worse than the "
+        withheld_sentence = (
+            f"{extended.cause}'s model, fitted on the first record, predicts the second record worse than the "
             f"plain fit ({misleads[0]:.3g} σ² against {misleads[1]:.3g} σ², by more than the noise can make): its "
             "hysteresis part, fitted together with the effect, does not carry to a new input, so the model "
             f"delivered is the plain fit; fit {extended.cause} again on a record that moves the whole range")
         validation.update(delivered="baseline", withheld=extended.cause,
                           withheld_sigma2={extended.cause: misleads[0], "baseline": misleads[1]},
-                          note=validation["note"] + withheld_remark.replace(". ", "; ", 1))
+                          note=f"{validation['note']}; {withheld_sentence}")
         extended = plain
     why = _why(named_verdict, cv_verdict, baseline, richer, candidates, noise,
                None if unidentified else validation)
     if unidentified:
         why += f". The record cannot identify the hysteresis: {unidentified}{delivery_remark}"
-    why += withheld_remark
+    if withheld_sentence:
+        why += f". {withheld_sentence}"
     for which, found in shape.items():
         where_found = "the record fitted" if which == "first" else "the second record"
         why += (f". On {where_found} the input's path alone predicts {found['removed_sigma2']:.3g} σ² of what "
