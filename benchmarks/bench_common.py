@@ -2,6 +2,7 @@
 description of the machine the numbers were measured on."""
 from __future__ import annotations
 
+import argparse
 import os
 import platform
 import shutil
@@ -46,6 +47,26 @@ class Row:
     def as_dict(self) -> dict:
         return asdict(self)
 
+
+
+def seed_arguments(description: str, default_records: int) -> argparse.ArgumentParser:
+    """The command line of a benchmark that runs one record set per seed: ``--records N``
+    (default ``default_records``) and ``--first-seed S``; add options to the parser returned."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--records", type=int, default=default_records, help="number of seeds")
+    parser.add_argument("--first-seed", type=int, default=0, help="first seed")
+    return parser
+
+
+def over_seeds(evaluate, first_seed: int, count: int, describe) -> list:
+    """``evaluate(seed)`` for ``count`` seeds from ``first_seed``, in order; as each one ends,
+    ``[i/count] seed S: describe(row)`` goes to stderr (the runs take minutes)."""
+    rows = []
+    for seed in range(first_seed, first_seed + count):
+        row = evaluate(seed)
+        rows.append(row)
+        print(f"[{len(rows)}/{count}] seed {seed}: {describe(row)}", file=sys.stderr, flush=True)
+    return rows
 
 def at_most(value: float, limit: float, unit: str = "") -> tuple:
     """``(target text, met)`` for a "no more than" target."""

@@ -73,7 +73,6 @@ record on a shared 2-core machine).  Progress goes to stderr.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -83,6 +82,8 @@ from collections import Counter
 from pathlib import Path
 
 import numpy as np
+
+from bench_common import over_seeds, seed_arguments
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 if str(TESTS) not in sys.path:
@@ -475,19 +476,14 @@ def _jsonable(x):
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--records", type=int, default=30, help="number of record pairs (seeds)")
-    parser.add_argument("--first-seed", type=int, default=0, help="first seed")
+    parser = seed_arguments(__doc__.split("\n\n")[0], 30)
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
     args = parser.parse_args(argv)
     api = _Api()
-    rows = []
     start = time.perf_counter()
-    for seed in range(args.first_seed, args.first_seed + args.records):
-        row = evaluate(api, seed)
-        rows.append(row)
-        print(f"[{len(rows)}/{args.records}] seed {seed}: {row['truth']} -> {_label(row)} ({row['outcome']}), "
-              f"{row.get('diagnose_s', 0):.1f} s", file=sys.stderr, flush=True)
+    rows = over_seeds(lambda seed: evaluate(api, seed), args.first_seed, args.records,
+                      lambda row: f"{row['truth']} -> {_label(row)} ({row['outcome']}), "
+                                  f"{row.get('diagnose_s', 0):.1f} s")
     summary = summarise(rows, api, time.perf_counter() - start)
     if args.json:
         json.dump(_jsonable(summary), sys.stdout, indent=1)

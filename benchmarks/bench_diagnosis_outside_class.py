@@ -24,13 +24,14 @@ on a grid eight times finer than the samples).  Progress goes to stderr.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from collections import Counter
 from pathlib import Path
 
 import numpy as np
+
+from bench_common import over_seeds, seed_arguments
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 if str(TESTS) not in sys.path:
@@ -80,16 +81,10 @@ def evaluate(seed: int) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--records", type=int, default=24, help="number of record pairs (seeds)")
-    parser.add_argument("--first-seed", type=int, default=0, help="first seed")
-    args = parser.parse_args(argv)
-    rows = []
-    for seed in range(args.first_seed, args.first_seed + args.records):
-        row = evaluate(seed)
-        rows.append(row)
-        print(f"[{len(rows)}/{args.records}] seed {seed}: {row['plant']} {row['effect']} -> {row['named']} "
-              f"({row['outcome']}), {row['seconds']:.1f} s", file=sys.stderr, flush=True)
+    args = seed_arguments(__doc__.split("\n\n")[0], 24).parse_args(argv)
+    rows = over_seeds(evaluate, args.first_seed, args.records,
+                      lambda row: f"{row['plant']} {row['effect']} -> {row['named']} ({row['outcome']}), "
+                                  f"{row['seconds']:.1f} s")
     print(f"{'seed':>4} {'plant':9} {'effect':6} {'inputs (1st/2nd/3rd)':34} {'named':34} {'outcome':12} "
           f"{'shape':13} {'3rd base %':>10} {'3rd e/b':>7}")
     for r in rows:

@@ -193,3 +193,16 @@ def _tiny_load():
     # the loader names the line of the bad cell: header + 2000 rows + 1
     assert "line 2002" in result["message"]
     return result, bench_load_measured.rows_of(result)
+
+
+# ------------------------------------------------------------- per-seed runs
+def test_per_seed_runs_keep_the_order_and_report_each_seed(capsys):
+    import bench_common
+
+    args = bench_common.seed_arguments("x", 60).parse_args(["--first-seed", "7", "--records", "3"])
+    rows = bench_common.over_seeds(lambda seed: {"seed": seed, "square": seed * seed}, args.first_seed,
+                                   args.records, lambda row: f"square {row['square']}")
+    assert [row["seed"] for row in rows] == [7, 8, 9]
+    err = capsys.readouterr().err.splitlines()
+    assert err == ["[1/3] seed 7: square 49", "[2/3] seed 8: square 64", "[3/3] seed 9: square 81"]
+    assert bench_common.seed_arguments("x", 60).parse_args([]).records == 60
