@@ -12,7 +12,10 @@ Procedure (``diagnose``):
    beside it.
 2. **Candidates**: every cause of the catalogue (:mod:`pysim.diagnosis.candidates`:
    rate_dependence, creep, delay, drift, rate_dependent_hysteresis,
-   slew_limit) is built on the better of the two rate-independent models; its
+   slew_limit) is built on the better of the two rate-independent models (a
+   stage whose parameters all shape the response -- a delay, a lag or
+   resonance, an input low-pass, a slew limit -- also on the other one, and
+   keeps the better out of sample: :func:`_candidates_on_either_base`); its
    shape parameters are searched on the whole record, its linear parameters
    refitted on every training part.  Every extension is physically admissible
    (non-negative creep modes, stable unit-gain dynamics, delay ≥ 0, a smooth
@@ -747,6 +750,36 @@ def fit_candidates(fitter: CandidateFitter, run, base_family: Family, causes, cr
     return candidates
 
 
+def _candidates_on_either_base(fitter: CandidateFitter, run, chosen, other, causes, creep_score=None) -> dict:
+    """Cause → :class:`Evaluation` of its extension of ``chosen`` (the better rate-independent
+    model); a stage in ``DYNAMICS`` also of ``other`` (the baseline's n operators or the richer
+    2n), keeping the better of the two out of sample.
+
+    The rate-independent models are compared without any effect, but which
+    hysteresis part fits best depends on the effect.  When the fitted
+    thresholds miss the plant's, a stage that bends the loops (an input
+    low-pass) takes up part of the shape error that more operators remove,
+    and is preferred to the true cause for it: a 0.62-sample delay on 10
+    operators left 1.39 σ² out of sample against an input low-pass's 1.09,
+    while on 20 operators both reach 1.07 σ² and the delay is found at 0.618
+    samples.  Only the stages whose parameters all shape the response (a
+    delay, a lag or resonance, an input low-pass, a slew rate) get the second
+    operator set: creep's modes and drift's trend are linear columns fitted
+    with the operator weights, and a second set of weights to trade with
+    lets fast creep modes pass for a lag (a 4.6 ms lag on a record that
+    misses the bottom 11 % of the range: creep on 10 operators 1.89 σ²,
+    the lag on 20 operators 2.25).
+    """
+    candidates = fit_candidates(fitter, run, chosen.fit.family, causes, creep_score)
+    if other is None or other.fit is chosen.fit:
+        return candidates
+    contest = [c for c, ev in candidates.items() if c in DYNAMICS and ev.mse_um2 < chosen.mse_um2]
+    for cause, ev in fit_candidates(fitter, run, other.fit.family, contest, creep_score).items():
+        if ev.mse_um2 < candidates[cause].mse_um2:
+            candidates[cause] = ev
+    return candidates
+
+
 # ------------------------------------------------------------ decision
 
 #: What "outside the catalogue" can be: the catalogue's effects act on a rate-independent MPI
@@ -1346,7 +1379,6 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     except IdentificationError as exc:
         raise DiagnosisError(f"{where}{exc}") from exc
     rate_independent = richer if richer.mse_um2 < baseline.mse_um2 else baseline
-    base_family = rate_independent.fit.family
     creep_score = None
     if validate is not None:
         train_range = (float(v.min()), float(v.max()))
@@ -1358,7 +1390,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 option.validation = score_on_record(option.fit, v2, y2, T, train_range, train_voltage_V=v)
             return option.mse_um2 * option.validation["mse_um2"]
 
-    candidates = fit_candidates(fitter, run, base_family, EFFECTS, creep_score)
+    other = baseline if rate_independent is richer else richer
+    candidates = _candidates_on_either_base(fitter, run, rate_independent, other, EFFECTS, creep_score)
 
     step = quantum(y)
     shaped_on_second = []
@@ -2089,7 +2122,7 @@ def _second_record_alone(fitter: CandidateFitter, causes, v2, y2, second=None):
     except IdentificationError:
         return None
     reference = richer if richer.mse_um2 < baseline.mse_um2 else baseline
-    found = fit_candidates(second, run, reference.fit.family, causes)
+    found = _candidates_on_either_base(second, run, reference, baseline if reference is richer else richer, causes)
     if not found:
         return None
     step = quantum(y2)
