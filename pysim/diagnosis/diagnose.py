@@ -762,6 +762,8 @@ def _candidates_on_either_base(fitter: CandidateFitter, run, chosen, other, caus
     and is preferred to the true cause for it: a 0.62-sample delay on 10
     operators left 1.39 σ² out of sample against an input low-pass's 1.09,
     while on 20 operators both reach 1.07 σ² and the delay is found at 0.618
+    samples.  The other base is kept only when it predicts better both in the
+    median block (the blocked score) and on average over all held-out
     samples.  Only the stages whose parameters all shape the response (a
     delay, a lag or resonance, an input low-pass, a slew rate) get the second
     operator set: creep's modes and drift's trend are linear columns fitted
@@ -775,7 +777,13 @@ def _candidates_on_either_base(fitter: CandidateFitter, run, chosen, other, caus
         return candidates
     contest = [c for c, ev in candidates.items() if c in DYNAMICS and ev.mse_um2 < chosen.mse_um2]
     for cause, ev in fit_candidates(fitter, run, other.fit.family, contest, creep_score).items():
-        if ev.mse_um2 < candidates[cause].mse_um2:
+        # better in the median block and on average over every held-out sample: the median forgives
+        # the block where a hysteresis part extrapolates wildly, which is what tells how it transfers
+        # to another input (independent seed 19: a delay on 20 operators leaves 3.98 σ² in the median
+        # block against 6.05 on 10, but 2·10⁵ σ² on average against 1.6·10³, and its model predicts
+        # a third record at 1.09× the plain fit's RMS against 0.71×)
+        if ev.mse_um2 < candidates[cause].mse_um2 and np.mean(_squared_error_gain(
+                fitter.y, candidates[cause].cv_prediction_um, ev.cv_prediction_um)) > 0.0:
             candidates[cause] = ev
     return candidates
 
