@@ -48,7 +48,6 @@ class Row:
         return asdict(self)
 
 
-
 def seed_arguments(description: str, default_records: int) -> argparse.ArgumentParser:
     """The command line of a benchmark that runs one record set per seed: ``--records N``
     (default ``default_records``) and ``--first-seed S``; add options to the parser returned."""
@@ -67,6 +66,7 @@ def over_seeds(evaluate, first_seed: int, count: int, describe) -> list:
         rows.append(row)
         print(f"[{len(rows)}/{count}] seed {seed}: {describe(row)}", file=sys.stderr, flush=True)
     return rows
+
 
 def at_most(value: float, limit: float, unit: str = "") -> tuple:
     """``(target text, met)`` for a "no more than" target."""

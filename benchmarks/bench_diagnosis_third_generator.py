@@ -113,7 +113,7 @@ def evaluate(seed: int) -> dict:
     row["seconds"] = time.perf_counter() - t0
     causes = tuple(d.causes)
     row.update(outcome=_outcome(pair.truth, d.cause, causes), cause=d.cause, causes=list(causes),
-               why=str(d.why), swapped=bool(getattr(d, "records_swapped", False)))
+               why=str(d.why), swapped=d.records_swapped)
     try:
         row.update(_third_record(d, third, fs))
     except Exception as exc:

@@ -750,10 +750,10 @@ def fit_candidates(fitter: CandidateFitter, run, base_family: Family, causes, cr
     return candidates
 
 
-def _candidates_on_either_base(fitter: CandidateFitter, run, chosen, other, causes, creep_score=None) -> dict:
-    """Cause → :class:`Evaluation` of its extension of ``chosen`` (the better rate-independent
-    model); a stage in ``DYNAMICS`` also of ``other`` (the baseline's n operators or the richer
-    2n), keeping the better of the two out of sample.
+def _candidates_on_either_base(fitter: CandidateFitter, run, baseline, richer, causes, creep_score=None) -> dict:
+    """Cause → :class:`Evaluation` of its extension of the better of the rate-independent models
+    ``baseline`` (n operators) and ``richer`` (2n); a stage in ``DYNAMICS`` also of the other one,
+    keeping the better of the two out of sample.
 
     The rate-independent models are compared without any effect, but which
     hysteresis part fits best depends on the effect.  When the fitted
@@ -772,8 +772,9 @@ def _candidates_on_either_base(fitter: CandidateFitter, run, chosen, other, caus
     misses the bottom 11 % of the range: creep on 10 operators 1.89 σ²,
     the lag on 20 operators 2.25).
     """
+    chosen, other = (richer, baseline) if richer.mse_um2 < baseline.mse_um2 else (baseline, richer)
     candidates = fit_candidates(fitter, run, chosen.fit.family, causes, creep_score)
-    if other is None or other.fit is chosen.fit:
+    if other.fit is chosen.fit:         # no richer model could be identified: it stands in as the baseline
         return candidates
     contest = [c for c, ev in candidates.items() if c in DYNAMICS and ev.mse_um2 < chosen.mse_um2]
     for cause, ev in fit_candidates(fitter, run, other.fit.family, contest, creep_score).items():
@@ -1398,8 +1399,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 option.validation = score_on_record(option.fit, v2, y2, T, train_range, train_voltage_V=v)
             return option.mse_um2 * option.validation["mse_um2"]
 
-    other = baseline if rate_independent is richer else richer
-    candidates = _candidates_on_either_base(fitter, run, rate_independent, other, EFFECTS, creep_score)
+    candidates = _candidates_on_either_base(fitter, run, baseline, richer, EFFECTS, creep_score)
 
     step = quantum(y)
     shaped_on_second = []
@@ -2130,7 +2130,7 @@ def _second_record_alone(fitter: CandidateFitter, causes, v2, y2, second=None):
     except IdentificationError:
         return None
     reference = richer if richer.mse_um2 < baseline.mse_um2 else baseline
-    found = _candidates_on_either_base(second, run, reference, baseline if reference is richer else richer, causes)
+    found = _candidates_on_either_base(second, run, baseline, richer, causes)
     if not found:
         return None
     step = quantum(y2)
