@@ -84,6 +84,26 @@ def test_identify_table_and_other_layouts(tmp_path):
     assert len([line for line in result.stdout.splitlines() if line.strip().startswith(("1 ", "6 "))]) >= 2
 
 
+def test_a_header_in_other_units_gives_the_same_fit_and_says_how_it_was_read(tmp_path, capsys):
+    """The shipped record written in ms, mV and nm under other names: the same model (the
+    numbers differ only by the rounding of the conversion), the reading on stderr, the JSON on stdout
+    untouched."""
+    data = load_measured(shipped_dataset("smart_hysteresis"))
+    other = tmp_path / "other_units.csv"
+    np.savetxt(other, np.column_stack([data.time_s * 1e3, data.voltage_V * 1e3, data.displacement_um * 1e3]),
+               delimiter=";", header="Time [ms];Voltage [mV];Position [nm]", comments="")
+    assert main(["identify", str(shipped_dataset("smart_hysteresis")), "--json"]) == 0
+    standard = json.loads(capsys.readouterr().out)
+    assert main(["identify", str(other), "--json"]) == 0
+    captured = capsys.readouterr()
+    converted = json.loads(captured.out)
+    assert converted["rms_error_pct"] == pytest.approx(standard["rms_error_pct"], rel=1e-6)
+    assert converted["parameters"]["a2_um_per_V"] == pytest.approx(standard["parameters"]["a2_um_per_V"], rel=1e-4)
+    assert converted["parameters"]["thresholds_V"] == pytest.approx(standard["parameters"]["thresholds_V"])
+    assert "'Time [ms]' read as time_s (ms to s" in captured.err
+    assert "'Position [nm]' read as displacement_um (nm to µm" in captured.err
+
+
 @pytest.mark.parametrize("bad", BAD, ids=[p.name for p in BAD])
 def test_bad_files_exit_2_with_one_line_and_write_nothing(tmp_path, bad):
     spec = tmp_path / "out.py"

@@ -184,7 +184,7 @@ BAD_FILES = {
     "header_only.csv": ["line 1", "no data rows"],
     "single_row.csv": ["line 2", "only one data row", "at least 2"],
     "missing_column.csv": ["line 1", "no column 'displacement_um'", "'time_s' (1), 'voltage_V' (2)"],
-    "misspelled_column.csv": ["line 1", "no column 'voltage_V'", "did you mean 'voltage_v', column 2"],
+    "misspelled_column.csv": ["line 1", "no column 'voltage_V'", "did you mean 'voltge_V', column 2"],
     "non_numeric.csv": ["line 4, column 2 (voltage_V)", "'3.0V' is not a number"],
     "nan.csv": ["line 5, column 3 (displacement_um)", "'NaN' is not a finite number"],
     "inf.csv": ["line 3, column 2 (voltage_V)", "'inf' is not a finite number"],
@@ -263,11 +263,48 @@ def test_messages_name_custom_columns_and_count_skipped_lines(tmp_path):
     assert "line 6, column 1 (t, used as time_s): '0,5' is not a number (decimal comma?" in message
 
 
-def test_header_names_are_case_sensitive_and_suggested(tmp_path):
-    path = write(tmp_path / "x.csv", "Time_S,volt_V,displacement_um\n0,1,2\n1,2,3\n")
+def test_unrecognised_header_names_are_suggested(tmp_path):
+    path = write(tmp_path / "x.csv", "Tim_S,voltage_out,displacement_um\n0,1,2\n1,2,3\n")
     message = load_error(path)
-    assert "no columns 'time_s' (did you mean 'Time_S', column 1?), 'voltage_V' (did you mean 'volt_V', column 2?)" \
-        in message
+    assert "no columns 'time_s' (did you mean 'Tim_S', column 1?), 'voltage_V' (did you mean 'voltage_out', " \
+           "column 2?)" in message
+
+
+@pytest.mark.parametrize("sep, cells", [
+    # (header cell, quantity, how many of the file's unit make one standard unit)
+    (",", [("Time [ms]", "t", 1000), ("Voltage [mV]", "v", 1000), ("Displacement [nm]", "d", 1000)]),
+    (";", [("time (s)", "t", 1), ("input voltage (V)", "v", 1), ("position (µm)", "d", 1)]),
+    ("\t", [("t/ms", "t", 1000), ("u/kV", "v", 0.001), ("y/mm", "d", 0.001)]),
+    (",", [("Time_S", "t", 1), ("volt_V", "v", 1), ("displacement_um", "d", 1)]),
+    (",", [("t", "t", 1), ("u", "v", 1), ("x", "d", 1)]),
+    (",", [("position in nm", "d", 1000), ("time in us", "t", 1e6), ("voltage", "v", 1)]),
+])
+def test_a_header_in_other_words_is_read_in_standard_units(tmp_path, sep, cells):
+    truth = {"t": FIVE_T, "v": FIVE_V, "d": FIVE_D}
+    columns = [[f"{round(x * scale, 9):.12g}" for x in truth[q]] for _, q, scale in cells]
+    text = sep.join(c for c, _, _ in cells) + "\n" + "".join(sep.join(row) + "\n" for row in zip(*columns))
+    data = load_measured(write(tmp_path / "x.csv", text))
+    for got, want in ((data.time_s, FIVE_T), (data.voltage_V, FIVE_V), (data.displacement_um, FIVE_D)):
+        np.testing.assert_array_max_ulp(got, want, maxulp=1)   # × 1000 of a decimal: within one ulp
+    assert len(data.read_as) == sum(c not in COLUMNS for c, _, _ in cells)
+    if all(scale >= 1 for _, _, scale in cells):
+        assert_same(data, FIVE_T, FIVE_V, FIVE_D)   # a division by 1000 is correctly rounded: exact
+
+
+def test_a_header_in_other_words_must_name_each_quantity_once_in_its_units(tmp_path):
+    ambiguous = write(tmp_path / "a.csv", "t,x,y\n0,1,2\n1,2,3\n")
+    assert "more than one column could be displacement_um: 'x' (column 2), 'y' (column 3)" in load_error(ambiguous)
+    # a displacement in volts is a raw sensor signal, not a displacement: not used, suggested only
+    sensor = write(tmp_path / "s.csv", "time_s,voltage_V,displacement [V]\n0,1,2\n1,2,3\n")
+    assert "no column 'displacement_um' (did you mean 'displacement [V]', column 3?)" in load_error(sensor)
+    # named by the user: used as given, and said so
+    data = load_measured(sensor, displacement_column="displacement [V]")
+    assert data.read_as == ("column 3 'displacement [V]' read as displacement_um "
+                            "(V is not a unit of displacement_um: taken as µm)",)
+    # a sample rate is the one source of time: a time column found by another name is then not used
+    timed = write(tmp_path / "t.csv", "Time [s],Voltage [V],Displacement [um]\n0,1,2\n1,2,3\n")
+    data = load_measured(timed, sample_rate_hz=10.0)
+    assert data.time_s.tolist() == [0.0, 0.1] and data.voltage_V.tolist() == [1.0, 2.0]
 
 
 def test_a_preamble_above_the_header_is_pointed_out(tmp_path):

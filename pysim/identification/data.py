@@ -7,6 +7,15 @@ The standard file is a CSV whose header row names the columns ``time_s``,
     0,0,-1.6174316
     0.0002,0.0942,-1.7242432
 
+A header that names the quantities in other words is read too, when every
+column it needs is named once: ``Time [ms]``, ``time (s)``, ``t_s``, ``time``;
+``Voltage [V]``, ``u``, ``input voltage (mV)``; ``Displacement [nm]``,
+``position_um``, ``y``.  A unit in brackets, parentheses, after ``/`` or ``_``
+or after ``in`` is converted to s, V and µm; a name without a unit is taken to
+be in s, V and µm; a column whose unit is of another quantity (``displacement
+[V]``, a raw sensor signal) is not used.  :attr:`MeasuredData.read_as` says
+which column was read as what.
+
 Other layouts are read with options: column names or 1-based column numbers,
 no header row, a ``;``, whitespace or other delimiter, and a sample rate when
 there is no time column.  Every problem with a file is a
@@ -76,6 +85,10 @@ class MeasuredData:
     sample_rate_hz : float, optional
         Sample rate in Hz; estimated from ``time_s`` when not given (see
         :func:`estimate_sample_rate`).
+    read_as : tuple of str
+        One sentence per column that was not read as a standard name says
+        which header cell became which quantity, and its unit conversion
+        (e.g. ``"column 1 'Time [ms]' read as time_s (ms to s, × 0.001)"``).
 
     Notes
     -----
@@ -88,6 +101,7 @@ class MeasuredData:
     displacement_um: np.ndarray
     source: str = ""
     sample_rate_hz: float | None = None
+    read_as: tuple = ()
 
     def __post_init__(self):
         for name in COLUMNS:
@@ -101,6 +115,7 @@ class MeasuredData:
             raise IdentificationError(f"MeasuredData arrays differ in length: time {self.time_s.size}, "
                              f"voltage {self.voltage_V.size}, displacement {self.displacement_um.size}")
         object.__setattr__(self, "source", str(self.source))
+        object.__setattr__(self, "read_as", tuple(str(line) for line in self.read_as))
         rate = estimate_sample_rate(self.time_s) if self.sample_rate_hz is None else float(self.sample_rate_hz)
         object.__setattr__(self, "sample_rate_hz", rate)
 
@@ -245,9 +260,9 @@ def load_measured(path, *, time_column=None, voltage_column=None, displacement_c
         strictly increase; at least 2 samples.
     """
     specs = {"time_s": time_column, "voltage_V": voltage_column, "displacement_um": displacement_column}
-    column, rate = _load_columns(path, specs, header, delimiter, sample_rate_hz, skip_rows)
+    column, rate, read_as = _load_columns(path, specs, header, delimiter, sample_rate_hz, skip_rows)
     return MeasuredData(column["time_s"], column["voltage_V"], column["displacement_um"], source=str(path),
-                        sample_rate_hz=rate)
+                        sample_rate_hz=rate, read_as=read_as)
 
 
 def load_reference(path, *, time_column=None, displacement_column=None, header=True, delimiter=None,
@@ -282,7 +297,7 @@ def load_reference(path, *, time_column=None, displacement_column=None, header=T
     ([10.0, 12.0, 15.0], 1000)
     """
     specs = {"time_s": time_column, "displacement_um": displacement_column}
-    column, rate = _load_columns(path, specs, header, delimiter, sample_rate_hz, skip_rows)
+    column, rate, _ = _load_columns(path, specs, header, delimiter, sample_rate_hz, skip_rows)
     time, displacement = (np.array(column[key], dtype=np.float64) for key in ("time_s", "displacement_um"))
     for array in (time, displacement):
         array.setflags(write=False)
@@ -290,9 +305,10 @@ def load_reference(path, *, time_column=None, displacement_column=None, header=T
 
 
 def _load_columns(path, specs: dict, header, delimiter, sample_rate_hz, skip_rows) -> tuple:
-    """``({role: float64 array}, rate or None)`` of the columns named by ``specs``
-    (role -> name or 1-based number, None for the role's default name); ``time_s``
-    is made from the sample rate when the file has no time column."""
+    """``({role: float64 array}, rate or None, read_as)`` of the columns named by
+    ``specs`` (role -> name or 1-based number, None for the role's default name),
+    in s, V and µm; ``time_s`` is made from the sample rate when the file has no
+    time column; ``read_as`` describes the columns found by another name."""
     name = str(path)
     path = Path(path)
     rate = _check_sample_rate(name, sample_rate_hz)
@@ -311,11 +327,12 @@ def _load_columns(path, specs: dict, header, delimiter, sample_rate_hz, skip_row
     if len(cells) < 2:
         raise DataError(_one_column_message(name, first + 1, lines[first], sep, detected=delimiter is None))
 
+    scales, read_as = {}, ()
     if header:
         names = [_unquote(cell) for cell in cells]
         _reject_numeric_header(name, first + 1, names)
         try:
-            columns = _columns_from_header(name, first + 1, names, specs, rate)
+            columns, scales, read_as = _columns_from_header(name, first + 1, names, specs, rate)
         except DataError as exc:
             raise DataError(f"{exc}{_header_further_down(lines, first, specs, rate)}") from None
         data_start = first + 1
@@ -325,7 +342,12 @@ def _load_columns(path, specs: dict, header, delimiter, sample_rate_hz, skip_row
         data_start = first
     reader = _Reader(name, lines, data_start, sep, len(cells), columns, names, header_line=first + 1)
     table = reader.parse()
-    return reader.columns_of(table, rate), rate
+    column = reader.columns_of(table, rate)
+    for role, scale in scales.items():
+        if scale != 1.0 and column.get(role) is not None:
+            # divide by 1000 rather than multiply by 0.001 (not a binary fraction): correctly rounded
+            column[role] = column[role] * scale if scale > 1.0 else column[role] / round(1.0 / scale)
+    return column, rate, read_as
 
 
 class _Reader:
@@ -601,9 +623,11 @@ def _check_number(name, role, number, n_cells, where) -> int:
     return number - 1
 
 
-def _columns_from_header(name, line_no, names, specs, rate) -> dict:
-    """Map role -> 0-based column index (time may be None) from header names."""
-    columns, missing = {}, []
+def _columns_from_header(name, line_no, names, specs, rate) -> tuple:
+    """``(columns, scales, read_as)`` from header names: role -> 0-based column
+    index (time may be None), role -> factor to the role's unit, and a sentence
+    for every column found by another name than its standard one."""
+    columns, missing, scales, read_as = {}, [], {}, []
     where = f"the header (line {line_no})"
     for role, spec in specs.items():
         if spec is None:
@@ -621,14 +645,21 @@ def _columns_from_header(name, line_no, names, specs, rate) -> dict:
         if len(hits) > 1:
             raise DataError(f"{name}: line {line_no}: the header names {wanted!r} more than once "
                             f"(columns {', '.join(str(i + 1) for i in hits)})")
+        if spec is None and not hits and not (role == "time_s" and rate is not None):
+            hits = _recognised(name, line_no, names, role)
         if role == "time_s" and spec is None and rate is not None:
             if hits:
-                raise DataError(f"{name}: line {line_no}: the file has a time column ({wanted}, column "
+                raise DataError(f"{name}: line {line_no}: the file has a time column ({names[hits[0]]}, column "
                                 f"{hits[0] + 1}) and a sample rate was given too; give only one")
             columns[role] = None
             continue
         if hits:
             columns[role] = hits[0]
+            if names[hits[0]] != role:
+                scale, unit = _unit_of(names[hits[0]], role)
+                scales[role] = scale
+                converted = "" if scale == 1.0 else f", × {scale:g}"
+                read_as.append(f"column {hits[0] + 1} {names[hits[0]]!r} read as {role} ({unit}{converted})")
         else:
             missing.append((role, wanted))
     if missing:
@@ -636,7 +667,70 @@ def _columns_from_header(name, line_no, names, specs, rate) -> dict:
     if columns.get("time_s") is not None and rate is not None:
         raise DataError(f"{name}: a time column and a sample rate were both given; give only one")
     _reject_shared(name, columns)
-    return columns
+    return columns, scales, tuple(read_as)
+
+
+# Words that name each quantity in a header (lower case, words separated by one space), and the
+# units of each with the factor to the standard unit.  Only whole-cell matches count: a cell such
+# as "voltage setpoint" or "position error" is not the quantity.
+_QUANTITY_WORDS = {
+    "time_s": ("time", "t", "timestamp", "elapsed time"),
+    "voltage_V": ("voltage", "volt", "volts", "v", "u", "input", "input voltage", "piezo voltage",
+                  "actuator voltage", "drive voltage", "applied voltage", "voltage in", "vin", "u in"),
+    "displacement_um": ("displacement", "position", "y", "x", "output", "output displacement",
+                        "measured displacement", "stage position", "disp", "pos", "extension", "stroke"),
+}
+_UNITS = {
+    "time_s": {"s": 1.0, "sec": 1.0, "seconds": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6},
+    "voltage_V": {"v": 1.0, "volt": 1.0, "volts": 1.0, "mv": 1e-3, "kv": 1e3},
+    "displacement_um": {"um": 1.0, "µm": 1.0, "μm": 1.0, "micron": 1.0, "microns": 1.0, "nm": 1e-3,
+                        "mm": 1e3, "m": 1e6},
+}
+_ALL_UNITS = {unit for units in _UNITS.values() for unit in units}
+_STANDARD_UNIT = {"time_s": "s", "voltage_V": "V", "displacement_um": "µm"}
+_UNIT_PATTERNS = tuple(re.compile(pattern, re.IGNORECASE) for pattern in (
+    r"^(?P<word>.+?)\s*[\[(]\s*(?P<unit>[^\])]*?)\s*[\])]$",   # Time [ms], time (s)
+    r"^(?P<word>.+?)\s*/\s*(?P<unit>[^\s/]+)$",                 # t/s
+    r"^(?P<word>.+?)\s+in\s+(?P<unit>\S+)$",                     # time in ms
+    r"^(?P<word>.+?)[_ ](?P<unit>[^_ ]+)$",                     # t_s, position um
+))
+
+
+def _word_and_unit(cell: str) -> tuple:
+    """``(words in lower case, unit in lower case or None, unit as written)`` of a header cell."""
+    text = " ".join(cell.strip().replace("-", " ").split())
+    for pattern in _UNIT_PATTERNS:
+        match = pattern.match(text)
+        if match and match["unit"].lower() in _ALL_UNITS:
+            return " ".join(match["word"].lower().replace("_", " ").split()), match["unit"].lower(), match["unit"]
+    return " ".join(text.lower().replace("_", " ").split()), None, None
+
+
+def _unit_of(cell: str, role: str) -> tuple:
+    """``(factor to the role's unit, how the unit was read)`` of a header cell (factor 1 when
+    the cell names no unit or one of another quantity: a column named by the user)."""
+    _, unit, written = _word_and_unit(cell)
+    standard = _STANDARD_UNIT[role]
+    if unit is None:
+        return 1.0, f"no unit given: taken as {standard}"
+    if unit not in _UNITS[role]:
+        return 1.0, f"{written} is not a unit of {role}: taken as {standard}"
+    return _UNITS[role][unit], f"{written} to {standard}" if _UNITS[role][unit] != 1.0 else written
+
+
+def _recognised(name, line_no, names, role) -> list:
+    """The header cell that names ``role``'s quantity in other words, with a unit of that
+    quantity or none (``[]`` when no cell does; an error when several do)."""
+    hits = []
+    for i, cell in enumerate(names):
+        words, unit, _ = _word_and_unit(cell)
+        if words in _QUANTITY_WORDS[role] and (unit is None or unit in _UNITS[role]):
+            hits.append(i)
+    if len(hits) > 1:
+        cells = ", ".join(f"{names[i]!r} (column {i + 1})" for i in hits)
+        raise DataError(f"{name}: line {line_no}: more than one column could be {role}: {cells}; "
+                        f"give the {role.split('_')[0]} column by name or number")
+    return hits
 
 
 def _missing_message(name, line_no, names, missing, rate) -> str:

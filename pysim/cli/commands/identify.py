@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import re
+import sys
 from pathlib import Path
 
 from pysim.cli.errors import UserError
@@ -10,7 +11,8 @@ from pysim.cli.errors import UserError
 
 def add_data_options(parser) -> None:
     """Options that describe a data file's layout (shared by the data commands)."""
-    group = parser.add_argument_group("data layout (default: CSV with header time_s,voltage_V,displacement_um)")
+    group = parser.add_argument_group("data layout (default: CSV with header time_s,voltage_V,displacement_um, or the "
+                                         "quantities in other words with units, e.g. Time [ms],Voltage [V],Position [nm])")
     group.add_argument("--time-column", help="name or 1-based number of the time column (s)")
     group.add_argument("--voltage-column", help="name or 1-based number of the voltage column (V)")
     group.add_argument("--displacement-column", help="name or 1-based number of the displacement column (µm)")
@@ -29,10 +31,13 @@ def load_data(args, path=None):
             return None
         return int(value) if re.fullmatch(r"\d+", value) else value
 
-    return load_measured(
+    data = load_measured(
         args.data if path is None else path, time_column=column(args.time_column), voltage_column=column(args.voltage_column),
         displacement_column=column(args.displacement_column), header=not args.no_header,
         delimiter=args.delimiter, sample_rate_hz=args.sample_rate)
+    for sentence in data.read_as:  # a header in other words: say how it was read (stderr: JSON stays clean)
+        print(f"{data.source}: {sentence}", file=sys.stderr)
+    return data
 
 
 def register(subparsers) -> None:
