@@ -317,6 +317,22 @@ def test_cli_bad_input_exits_2_and_writes_nothing(tmp_path, args, message):
     assert set(tmp_path.rglob("*")) == before
 
 
+def test_cli_a_falling_displacement_is_refused_and_flipped_on_request(tmp_path):
+    case = make_case(0)
+    rising = _write_case(tmp_path, 0)
+    falling = save_measured(MeasuredData(case.time_s, case.voltage_V, -case.displacement_um, "falling"),
+                            tmp_path / "falling.csv")
+    refused = _pysim(rising, "--validate", falling, "--report", tmp_path / "report")
+    assert refused.returncode == 2 and len(refused.stderr.strip().splitlines()) == 1
+    assert "falling.csv: the displacement falls as the voltage rises" in refused.stderr
+    assert "--flip-displacement" in refused.stderr and not (tmp_path / "report").exists()
+    plain, flipped = _pysim(rising, "--json"), _pysim(falling, "--json", "--flip-displacement")
+    assert plain.returncode == 0 and flipped.returncode == 0, flipped.stderr
+    assert "falling.csv: displacement_um negated (--flip-displacement)" in flipped.stderr
+    a, b = json.loads(plain.stdout), json.loads(flipped.stdout)
+    assert (a["cause"], a["baseline"], a["extended"]) == (b["cause"], b["baseline"], b["extended"])
+
+
 def test_cli_constant_record_is_a_clear_error(tmp_path):
     n = 500
     data = save_measured(MeasuredData(np.arange(n) * 1e-3, np.full(n, 5.0), np.zeros(n), "flat"),

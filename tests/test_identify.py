@@ -124,6 +124,18 @@ def test_too_few_samples_and_constant_input_are_refused():
         identify(np.ones(100), np.arange(100.0))
 
 
+def test_a_displacement_that_falls_with_the_voltage_is_refused_with_the_remedy():
+    """A sensor counting the other way: the model class rises with the voltage, so the record is
+    refused (not fitted as a mirror image), and the message says how to flip it."""
+    v = exciting_input(4001)
+    y = scaled_paper_model().simulate(v)
+    with pytest.raises(IdentificationError, match=r"falls as the voltage rises over samples 0\.\.4000 "
+                                                  r"\(correlation -0\.9\d.*--flip-displacement"):
+        identify(v, 3.0 - y)
+    fit = identify(v, -(3.0 - y))   # flipped back: fitted to rounding
+    assert fit.errors["max_error_pct"] < 1e-6
+
+
 def test_numeric_warmup_leaves_samples_out_and_starts_demagnetised():
     truth = scaled_paper_model()
     v = exciting_input()

@@ -97,7 +97,7 @@ from pysim.diagnosis.input_stages import InputStageModel
 from pysim.diagnosis.residuals import noise_sigma, quantum, residual_statistics
 from pysim.diagnosis.path_memory import path_memory, path_predicted
 from pysim.diagnosis.validation import inside_range, score_on_record
-from pysim.identification.identify import IdentificationError, identify, start_transient
+from pysim.identification.identify import IdentificationError, identify, require_rising, start_transient
 
 CAUSES = EFFECTS + ("none", "unexplained")
 #: A candidate must remove at least this many noise variances of cross-validated mean-square error.
@@ -1238,6 +1238,10 @@ def _check_record(v, y, sample_rate_hz, what: str):
     if v.size < 400:
         raise DiagnosisError(f"{what}{v.size} samples; the diagnosis needs at least 400 "
                              "(five blocks of cross-validation)")
+    try:
+        require_rising(v, y)
+    except IdentificationError as exc:
+        raise DiagnosisError(f"{what}{exc}") from None
 
 
 def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, n_operators: int = 10,

@@ -45,6 +45,7 @@ reported for it, the sum living in ``a2``.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -445,6 +446,36 @@ def _merge_plan(thresholds, travel, span):
     return anchor, factor
 
 
+def require_rising(voltage_V, displacement_um, where: str = "") -> None:
+    """Raise :class:`IdentificationError` when the displacement clearly falls as the voltage rises
+    (correlation below -0.5: a sensor that counts the other way).
+
+    Every model here rises with the voltage: it would fit the mirror image of such a record's loops
+    and leave the difference to be blamed on an effect.  ``where`` completes the message ("over
+    samples 0..999").
+
+    Examples
+    --------
+    >>> v = np.linspace(0.0, 100.0, 50)
+    >>> require_rising(v, 0.1 * v)
+    >>> require_rising(v, -0.1 * v)
+    Traceback (most recent call last):
+    ...
+    pysim.identification.errors.IdentificationError: the displacement falls as the voltage rises (correlation -1.00, slope -0.1 µm/V): the models rise with the voltage; give the displacement with its sign flipped (−displacement, or --flip-displacement on the command line)
+    """
+    v, y = np.asarray(voltage_V, dtype=float), np.asarray(displacement_um, dtype=float)
+    v_dev, y_dev = v - v.mean(), y - y.mean()
+    scale = math.sqrt(float(v_dev @ v_dev) * float(y_dev @ y_dev))
+    correlation = float(v_dev @ y_dev) / scale if scale > 0 else 0.0
+    if correlation < -0.5:
+        slope = float(v_dev @ y_dev) / float(v_dev @ v_dev)
+        where = f" {where}" if where else ""
+        raise IdentificationError(
+            f"the displacement falls as the voltage rises{where} (correlation {correlation:.2f}, slope "
+            f"{slope:.3g} µm/V): the models rise with the voltage; give the displacement with its sign "
+            "flipped (−displacement, or --flip-displacement on the command line)")
+
+
 def _reversal_check(v, rows, where):
     """One message when the input in ``rows`` never changes direction."""
     x = v[rows]
@@ -576,6 +607,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     lo, hi = float(v[rows].min()), float(v[rows].max())
     if not hi > lo:
         raise IdentificationError(f"the voltage is constant over samples {first}..{stop - 1}: nothing to identify")
+    require_rising(v[rows], y[rows], f"over samples {first}..{stop - 1}")
     # u = v - lo for both kinds: the cubic a1 u^3 about the bottom of the range
     # is what makes loops asymmetric (about the centre it would be odd-symmetric)
     input_offset = lo if input_offset_V is None else float(input_offset_V)

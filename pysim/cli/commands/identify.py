@@ -20,11 +20,13 @@ def add_data_options(parser) -> None:
     group.add_argument("--delimiter", help="field separator (default: detected)")
     group.add_argument("--sample-rate", type=float, metavar="HZ",
                        help="sample rate when the file has no time column")
+    group.add_argument("--flip-displacement", action="store_true",
+                       help="negate the displacement (a sensor that counts down as the actuator extends)")
 
 
 def load_data(args, path=None):
     """Load ``args.data`` (or ``path``) with the layout options of :func:`add_data_options`."""
-    from pysim.identification.data import load_measured
+    from pysim.identification.data import MeasuredData, load_measured
 
     def column(value):
         if value is None:
@@ -35,6 +37,10 @@ def load_data(args, path=None):
         args.data if path is None else path, time_column=column(args.time_column), voltage_column=column(args.voltage_column),
         displacement_column=column(args.displacement_column), header=not args.no_header,
         delimiter=args.delimiter, sample_rate_hz=args.sample_rate)
+    if args.flip_displacement:
+        data = MeasuredData(data.time_s, data.voltage_V, -data.displacement_um, source=data.source,
+                            sample_rate_hz=data.sample_rate_hz,
+                            read_as=data.read_as + ("displacement_um negated (--flip-displacement)",))
     for sentence in data.read_as:  # a header in other words: say how it was read (stderr: JSON stays clean)
         print(f"{data.source}: {sentence}", file=sys.stderr)
     return data
