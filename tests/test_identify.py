@@ -9,6 +9,7 @@ from pysim.identification.identify import (
     IdentificationError,
     best_clamped_state,
     identify,
+    identify_jointly,
     operator_bounds,
     regressors,
 )
@@ -310,3 +311,54 @@ def test_a_record_between_two_levels_is_fitted_as_a_line_and_says_why():
     np.testing.assert_allclose(result.prediction_um, y, atol=1e-9)
     with pytest.raises(IdentificationError, match="2 distinct input levels"):
         identify(v, y)
+
+
+# ------------------------------------------------------------ several records at once
+
+def _two_records_of_one_plant():
+    """A plant with an uneven weight density; a record that moves only the lower operators (small
+    cycles, a state left by a history) and a full-range one, each with its own sensor offset."""
+    r = eq13_thresholds(8, 100.0)
+    weights = (0.0, 0.02, 0.09, 0.01, 0.06, 0.12, 0.03, 0.08)
+    truth = HysteresisModel(-2e-6, 0.3, tuple(r), weights, voltage_range_V=(0.0, 100.0))
+    t = np.linspace(0.0, 1.0, 6000)
+    low = np.concatenate((np.linspace(0, 100, 400), np.linspace(100, 30, 400), 30 + 15 * np.sin(2 * np.pi * 9 * t)))
+    full = 50 + 50 * np.sin(2 * np.pi * 3 * t + np.arcsin(0.2))       # starts at 60 V, after a history
+    states = (np.zeros(8), np.array([60.0, 50.0, 40.0, 30.0, 20.0, 10.0, 0.0, -10.0]))   # in 60 V - r ... 60 V
+    records = [(low, truth.simulate(low, states[0].copy()) + 4.0),
+               (full, truth.simulate(full, states[1].copy()) - 1.5)]
+    return truth, records, states
+
+
+def test_a_joint_fit_recovers_what_neither_record_alone_determines():
+    truth, records, states = _two_records_of_one_plant()
+    low_alone = identify(*records[0], model="mpi", n_operators=8)
+    assert low_alone.not_identifiable_operators        # the first record ties its top operators
+    fit = identify_jointly(records, thresholds_V=truth.thresholds_V, input_offset_V=0.0, initial_states=states,
+                           voltage_range_V=(0.0, 100.0))
+    assert fit.not_identifiable_operators == ()
+    np.testing.assert_allclose(fit.model.weights_um_per_V, truth.weights_um_per_V, atol=1e-9)
+    assert fit.model.a1 == pytest.approx(truth.a1, rel=1e-6) and fit.model.a2 == pytest.approx(truth.a2, rel=1e-9)
+    assert fit.model.output_offset_um == pytest.approx(4.0, abs=1e-9)        # the first record's sensor zero
+    np.testing.assert_allclose(fit.prediction_um, records[0][1], atol=1e-8)  # the first record, from its state
+    assert fit.objective < 1e-12 and fit.model.check_invertibility().invertible
+
+
+def test_a_joint_fit_shares_the_shared_extras_and_keeps_each_records_own():
+    truth, records, states = _two_records_of_one_plant()
+    ramps = [np.linspace(0.0, 1.0, v.size) for v, _ in records]
+    slow = [np.sin(np.linspace(0.0, 3.0, v.size)) for v, _ in records]
+    shaped = [(v, y + 0.7 * s + trend * ramp) for (v, y), s, ramp, trend in zip(records, slow, ramps, (0.4, -2.0))]
+    fit = identify_jointly(shaped, thresholds_V=truth.thresholds_V, input_offset_V=0.0, initial_states=states,
+                           voltage_range_V=(0.0, 100.0), shared_extras=[{"slow": s} for s in slow],
+                           own_extras=[{"trend": ramps[0]}, {"second trend": ramps[1]}])
+    assert fit.extra_coefficients == pytest.approx({"slow": 0.7, "trend": 0.4}, abs=1e-9)
+    np.testing.assert_allclose(fit.model.weights_um_per_V, truth.weights_um_per_V, atol=1e-9)
+    # a coefficient held non-negative stays so, and the constrained fit is no better
+    held = identify_jointly(shaped, thresholds_V=truth.thresholds_V, input_offset_V=0.0, initial_states=states,
+                            voltage_range_V=(0.0, 100.0), shared_extras=[{"slow": -s} for s in slow],
+                            extra_nonnegative=["slow"])
+    assert held.extra_coefficients["slow"] == pytest.approx(0.0, abs=1e-12) and held.constraints_active
+    with pytest.raises(IdentificationError, match="same columns"):
+        identify_jointly(shaped, thresholds_V=truth.thresholds_V, input_offset_V=0.0, initial_states=states,
+                         voltage_range_V=(0.0, 100.0), shared_extras=[{"slow": slow[0]}, {"other": slow[1]}])

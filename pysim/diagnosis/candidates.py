@@ -84,6 +84,7 @@ from pysim.identification.identify import (
     IdentificationError,
     IdentificationResult,
     identify,
+    identify_jointly,
     operator_bounds,
     regressors,
 )
@@ -581,6 +582,50 @@ class CandidateFitter:
         """The linear parameters of ``family`` fitted on ``rows`` (default: all)."""
         return identify(self.operator_input(family), self.y, initial_state=family.initial_state, fit_rows=rows,
                         name=self.name, description=self.description, **self._settings(family))
+
+    def fit_jointly(self, family: Family, voltage2_V, displacement2_um, state2, rows2=None,
+                    history2=None, rows=None) -> IdentificationResult:
+        """The linear parameters of ``family`` fitted on this record and a second record of the
+        same actuator together (:func:`pysim.identification.identify.identify_jointly`).
+
+        The shape parameters stay the family's.  Shared by both records: the hysteresis
+        parameters and creep's mode weights (the same actuator).  The second record's own: its
+        operator state ``state2`` (of the operators' input: after the family's input stage), its
+        sensor offset, a drift (a trend belongs to a session, not to the actuator) and the free
+        responses ``history2`` ((N2, m) columns) of slow stage modes that a history before it left
+        away from rest.  ``displacement2_um`` is corrected for a sensor gain by the caller.
+        ``rows`` and ``rows2``: the samples fitted of each record (default: all).
+        ``finish(family, result)`` then gives the model, on this record.
+        """
+        v2 = np.asarray(voltage2_V, dtype=float)
+        y2 = np.asarray(displacement2_um, dtype=float)
+        x1 = self.operator_input(family)
+        x2 = v2 if family.input_stage is None else apply_input_stage(family.input_stage[0], family.input_stage[1],
+                                                                    v2, self.T)
+        shared, own = [{}, {}], [{}, {}]
+        if family.cause == "creep" and family.extras:
+            taus = np.asarray(family.parameters["time_constants_s"], dtype=float)
+            lags2 = mode_lags(v2 - family.input_offset_V, taus, self.T)
+            shared = [dict(family.extras),
+                      {key: family.extra_sign * lags2[:, j] for j, key in enumerate(family.extras)}]
+        elif family.cause == "drift":
+            scale = family.parameters["time_scale_s"]
+            time2 = np.arange(v2.size) * self.T
+            own = [dict(family.extras),
+                   {f"second record t{j}": (time2 / scale) ** j for j in range(1, family.parameters["degree"] + 1)}]
+        elif family.extras:
+            raise DiagnosisError(f"{family.cause}: no joint fit for its extra columns")
+        if history2 is not None:
+            own[1].update({f"second record history mode {j}": column for j, column in enumerate(history2.T)})
+        return identify_jointly(
+            [(x1, self.y), (x2, y2)], thresholds_V=family.thresholds_V, input_offset_V=family.input_offset_V,
+            initial_states=[family.initial_state, state2], voltage_range_V=(float(x1.min()), float(x1.max())),
+            model=self.kind, operator=self.operator,
+            column_transform=None if family.transform is None else family.transform.apply_to_columns,
+            shared_extras=shared, own_extras=own, extra_nonnegative=family.nonnegative,
+            fit_rows=[np.arange(x1.size) if rows is None else rows, np.arange(x2.size) if rows2 is None else rows2],
+            name=self.name,
+            description=self.description)
 
     def finish(self, family: Family, result: IdentificationResult) -> CandidateFit:
         """The model of a fitted family, its state and prediction."""

@@ -1019,6 +1019,177 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         unidentified_reason=unexcited_message or "")
 
 
+def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_states, voltage_range_V,
+                     model: str = "mpi", operator: str = "osp", column_transform=None, shared_extras=None,
+                     own_extras=None, extra_nonnegative=(), fit_rows=None, min_slope_fraction: float = 0.01,
+                     name: str = None, description: str = "") -> IdentificationResult:
+    """Fit one model's linear parameters on several records of the same actuator.
+
+    The hysteresis parameters (``a1``, ``a2``, the weights; thresholds and
+    input offset given) and the coefficients of ``shared_extras`` are common
+    to all records; each record has its own operator state before its first
+    sample (given, e.g. estimated by :func:`identify` on the first record and
+    by :func:`pysim.diagnosis.validation.score_on_record` on the others), its
+    own sensor offset and the coefficients of its ``own_extras`` (a drift, a
+    history's decaying transient).  Operators are tied as in :func:`identify`
+    by their travel over all records together, so an operator that only a
+    later record moves is fitted on its own; the fit is exact under the same
+    invertibility constraints over ``voltage_range_V``.
+
+    Parameters
+    ----------
+    records : sequence of (voltage_V, displacement_um)
+        The records (µm for the displacement: a sensor gain that differs
+        between records is corrected by the caller).
+    thresholds_V, input_offset_V
+        The model's thresholds and input shift.
+    initial_states : sequence of array_like
+        Operator state before each record's first sample.
+    voltage_range_V : (float, float)
+        Range over which the model must stay invertible (and that it reports).
+    column_transform : callable, optional
+        Applied to each record's hysteresis columns separately (a linear stage
+        after the hysteresis, at rest at the record's first sample).
+    shared_extras : sequence of dict, optional
+        Per record, name → column; the same names on every record, one
+        coefficient each for all records.
+    own_extras : sequence of dict, optional
+        Per record, name → column; names unique over the records, one
+        coefficient each, fitted on its record only.
+    extra_nonnegative : iterable of str
+        Names of shared extras whose coefficients must be >= 0.
+    fit_rows : sequence of index arrays, optional
+        Per record, the samples fitted (default: all).
+
+    Returns
+    -------
+    IdentificationResult
+        For the first record: the model, its prediction and errors over that
+        record (from its initial state), the shared extras' coefficients and
+        the first record's own ones in ``extra_coefficients``; ``objective``
+        is the error sum over all records.
+
+    Raises
+    ------
+    IdentificationError
+        When the records together cannot determine the parameters (dependent
+        columns) or the constraints cannot hold.
+
+    Examples
+    --------
+    >>> from pysim.core.model import HysteresisModel
+    >>> r = (0.0, 25.0, 50.0, 75.0)
+    >>> truth = HysteresisModel(0.0, 0.4, r, (0.0, 0.05, 0.05, 0.05), voltage_range_V=(0.0, 100.0))
+    >>> low_sine = 30 + 25 * np.sin(np.linspace(0, 6 * np.pi, 1500))       # moves two operators
+    >>> full_sine = 50 + 50 * np.sin(np.linspace(0, 6 * np.pi, 1500))      # moves all of them
+    >>> states = ([40.0, 20.0, 0.0, 0.0], [50.0, 25.0, 0.0, 0.0])
+    >>> records = [(v, truth.simulate(v, list(s)) + offset) for v, s, offset in
+    ...            zip((low_sine, full_sine), states, (1.0, -0.5))]
+    >>> fit = identify_jointly(records, thresholds_V=r, input_offset_V=0.0, initial_states=states,
+    ...                        voltage_range_V=(0.0, 100.0))
+    >>> np.round(fit.model.weights_um_per_V, 6).tolist(), round(fit.model.output_offset_um, 6)
+    ([0.0, 0.05, 0.05, 0.05], 1.0)
+    """
+    if model not in ("mpi", "cpi"):
+        raise IdentificationError(f"model must be 'mpi' or 'cpi', got {model!r}")
+    records = [(np.asarray(v, dtype=float).ravel(), np.asarray(y, dtype=float).ravel()) for v, y in records]
+    n_records = len(records)
+    if n_records == 0 or len(initial_states) != n_records:
+        raise IdentificationError(f"{n_records} records but {len(initial_states)} initial states")
+    shared = list(shared_extras) if shared_extras is not None else [{} for _ in records]
+    own = list(own_extras) if own_extras is not None else [{} for _ in records]
+    rows = ([np.arange(v.size) for v, _ in records] if fit_rows is None
+            else [np.unique(np.asarray(k, dtype=int).ravel()) for k in fit_rows])
+    if not (len(shared) == len(own) == len(rows) == n_records):
+        raise IdentificationError("shared_extras, own_extras and fit_rows need one entry per record")
+    shared_names = list(shared[0])
+    if any(list(extras) != shared_names for extras in shared):
+        raise IdentificationError("shared_extras must name the same columns, in the same order, on every record")
+    own_names = [f"record {k + 1} offset" for k in range(1, n_records)] + [key for extras in own for key in extras]
+    if len(set(own_names)) != len(own_names) or set(own_names) & set(shared_names):
+        raise IdentificationError("own_extras' names must be unique over the records and the shared extras")
+    r = np.asarray(thresholds_V, dtype=float)
+    cubic = model == "mpi"
+    n_lin = 2 if cubic else 1
+    lo, hi = (float(x) for x in voltage_range_V)
+
+    travel = np.zeros(r.size)
+    raw = []
+    for (v, _), state, k in zip(records, initial_states, rows):
+        low, high = operator_bounds(v, r, operator, input_offset_V)
+        travel += operator_travel(low, high, k, v) if k.size > 1 else 0.0
+        A, columns = regressors(v, r, operator, input_offset_V, cubic,
+                                initial_state=np.clip(np.asarray(state, dtype=float), low[0], high[0]))
+        raw.append((A, columns))
+    anchor, factor = _merge_plan(r, travel, hi - lo)
+    groups = [i for i in range(r.size) if anchor[i] == i]
+    column_of = {i: n_lin + j for j, i in enumerate(groups)}
+    n_hyst = n_lin + len(groups) + 1
+
+    blocks, targets = [], []
+    n_shared, n_own = len(shared_names), len(own_names)
+    for index, ((A, columns), (v, y), k) in enumerate(zip(raw, records, rows)):
+        H = np.zeros((v.size, n_hyst))
+        H[:, :n_lin] = A[:, :n_lin]
+        for i in range(r.size):
+            if anchor[i] >= 0 and columns[i] >= 0:
+                H[:, column_of[anchor[i]]] += factor[i] * A[:, columns[i]]
+        H[:, n_hyst - 1] = 1.0
+        if column_transform is not None:
+            H = np.asarray(column_transform(H), dtype=float)
+        S = (np.column_stack([np.asarray(shared[index][key], dtype=float).ravel() for key in shared_names])
+             if n_shared else np.zeros((v.size, 0)))
+        O = np.zeros((v.size, n_own))
+        if index > 0:
+            O[:, index - 1] = 1.0            # the record's own sensor offset
+        for key, column in own[index].items():
+            O[:, own_names.index(key)] = np.asarray(column, dtype=float).ravel()
+        blocks.append(np.column_stack([H, S, O]))
+        targets.append(y)
+    n_params = n_hyst + n_shared + n_own
+    names = ((["a1 u³"] if cubic else []) + ["a2 u"] + [f"operator {i + 1} (r = {r[i]:.4g} V)" for i in groups]
+             + ["offset"] + [f"extra {key!r}" for key in shared_names] + own_names)
+    effective_columns = [column_of.get(int(anchor[i]), -1) if anchor[i] >= 0 else -1 for i in range(r.size)]
+    template = HysteresisModel(0.0, 1.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
+                               input_offset_V=input_offset_V, voltage_range_V=(lo, hi), name="template")
+    first_y = targets[0][rows[0]]
+    mean_gain = float(np.ptp(first_y)) / (hi - lo) if hi > lo else 0.0
+    G, h = _invertibility_rows(template, n_params, cubic, effective_columns, min_slope_fraction * mean_gain,
+                               factor)
+    nonneg = [n_hyst + j for j, key in enumerate(shared_names) if key in set(extra_nonnegative)]
+    if nonneg:
+        sign_rows = np.zeros((len(nonneg), n_params))
+        sign_rows[np.arange(len(nonneg)), nonneg] = 1.0
+        G, h = np.vstack([G, sign_rows]), np.concatenate([h, np.zeros(len(nonneg))])
+    A_all = np.vstack([block[k] for block, k in zip(blocks, rows)])
+    y_all = np.concatenate([y[k] for y, k in zip(targets, rows)])
+    theta, active, condition = solve_lsi(A_all, y_all, G, h, names)
+    residual = y_all - A_all @ theta
+
+    weights = np.array([factor[i] * theta[column_of[anchor[i]]] if anchor[i] >= 0 else 0.0
+                        for i in range(r.size)])
+    identified = HysteresisModel(
+        a1=float(theta[0]) if cubic else 0.0, a2=float(theta[n_lin - 1]), thresholds_V=tuple(r),
+        weights_um_per_V=tuple(weights), operator=operator, input_offset_V=input_offset_V,
+        output_offset_um=float(theta[n_hyst - 1]), voltage_range_V=(lo, hi),
+        name=name or f"identified_{model}", description=description)
+    coefficients = {key: float(theta[n_hyst + j]) for j, key in enumerate(shared_names)}
+    coefficients.update({key: float(theta[n_hyst + n_shared + own_names.index(key)]) for key in own[0]})
+    first = blocks[0]
+    keep = np.r_[np.arange(n_hyst + n_shared), [n_hyst + n_shared + own_names.index(key) for key in own[0]]]
+    prediction = first[:, keep.astype(int)] @ theta[keep.astype(int)]
+    not_identifiable = tuple(int(i) for i in range(r.size) if r[i] > 0 and anchor[i] != i)
+    return IdentificationResult(
+        model=identified, warmup_samples=0, prediction_um=prediction,
+        fit_slice=slice(int(rows[0][0]), int(rows[0][-1]) + 1),
+        errors=error_measures(first_y, prediction[rows[0]]), constraints_active=active,
+        extra_coefficients=coefficients, objective=float(residual @ residual),
+        initial_state=np.asarray(initial_states[0], dtype=float), initial_state_estimated=False,
+        not_identifiable_operators=not_identifiable,
+        merged_into={int(i): int(anchor[i]) for i in not_identifiable if anchor[i] >= 0},
+        operator_travel_V=travel, condition_number=condition)
+
+
 def start_transient(voltage_V, displacement_um, **settings) -> int:
     """Samples at the start that no rate-independent state explains (a sensor or
     amplifier settling when the logger started), to leave out of a fit.

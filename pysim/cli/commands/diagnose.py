@@ -104,7 +104,9 @@ def _spec_header(result) -> str:
             if stage is not m else "")
     what = (f"Plain MPI model ({result.withheld} named; its model predicts the second record worse)"
             if result.withheld else f"MPI model with output stages ({result.cause})")
-    return (f"{what} identified from {Path(result.source).name} by "
+    both = (f" and {Path(result.validation['source'] or 'the second record').name} (shape parameters from the first)"
+            if result.fitted_on_both_records else "")
+    return (f"{what} identified from {Path(result.source).name}{both} by "
             f"pysim diagnose.\n\nHeld-out errors (% of range): baseline max {result.baseline.max_pct:.3f}, "
             f"RMS {result.baseline.rms_pct:.3f}; extended max {result.extended.max_pct:.3f}, RMS "
             f"{result.extended.rms_pct:.3f} (gain {result.gain_pct:.1f} %).\n"
@@ -129,7 +131,8 @@ def format_text(result, report, out) -> str:
     by_steps = (f"; on the responses to {steps['windows']} step(s) into holds it removes "
                 f"{100 * steps['removed_share'][result.extended.cause]:.0f} % of the excess"
                 if steps and result.extended.cause in steps["removed_share"] else "")
-    lines += [f"  extended ({result.extended.cause}): gain {result.gain_pct:.1f} % (cross-validated){by_steps}"
+    both = "; the model delivered is fitted on both records" if result.fitted_on_both_records else ""
+    lines += [f"  extended ({result.extended.cause}): gain {result.gain_pct:.1f} % (cross-validated){by_steps}{both}"
               if not result.withheld else
               f"  delivered: the plain fit ({result.withheld}'s model predicts the second record worse)",
               "", "  candidates:"]
