@@ -116,8 +116,9 @@ def plot_overview(d: Diagnosis, path: Path):
     axes[0].set_title(f"{Path(d.source).name if d.source else 'record'}: cause named {d.cause}, "
                       f"cross-validated gain {_explaining(d).gain_pct:.1f} %"
                       + (" (its model is not delivered)" if d.withheld else "")
-                      + "\n(models fitted on the whole record; every "
-                      f"block is held out in turn for the scores, grey: the last block)", fontsize=10)
+                      + ("\n(the baseline fitted on the whole record, the extended model on it and the second record;"
+                         "\n" if d.fitted_on_both_records else "\n(models fitted on the whole record; ")
+                      + "every block is held out in turn for the scores, grey: the last block)", fontsize=10)
     axes[1].plot(t, d.displacement_um, color=MEASURED_COLOUR, lw=0.8, label="measured")
     axes[1].plot(t, d.baseline.prediction_um, color=BASE_COLOUR, lw=0.8, ls="--", label=base_label)
     if d.cause != "none":

@@ -11,8 +11,9 @@ from pysim.cli.errors import UserError
 
 def add_data_options(parser) -> None:
     """Options that describe a data file's layout (shared by the data commands)."""
-    group = parser.add_argument_group("data layout (default: CSV with header time_s,voltage_V,displacement_um, or the "
-                                         "quantities in other words with units, e.g. Time [ms],Voltage [V],Position [nm])")
+    group = parser.add_argument_group(
+        "data layout (default: CSV with header time_s,voltage_V,displacement_um, or the quantities in other "
+        "words with units, e.g. Time [ms],Voltage [V],Position [nm])")
     group.add_argument("--time-column", help="name or 1-based number of the time column (s)")
     group.add_argument("--voltage-column", help="name or 1-based number of the voltage column (V)")
     group.add_argument("--displacement-column", help="name or 1-based number of the displacement column (µm)")
