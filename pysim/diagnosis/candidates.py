@@ -543,10 +543,12 @@ class CandidateFitter:
         raise DiagnosisError(f"unknown effect {cause!r}; the catalogue is {EFFECTS}")
 
     # ------------------------------------------------------------- fitting
-    def operator_input(self, family: Family) -> np.ndarray:
+    def operator_input(self, family: Family, voltage_V=None) -> np.ndarray:
+        """What the operators of ``family`` see of ``voltage_V`` (default: this record's voltage)."""
+        v = self.v if voltage_V is None else np.asarray(voltage_V, dtype=float)
         if family.input_stage is None:
-            return self.v
-        return apply_input_stage(family.input_stage[0], family.input_stage[1], self.v, self.T)
+            return v
+        return apply_input_stage(family.input_stage[0], family.input_stage[1], v, self.T)
 
     def with_estimated_state(self, family: Family, kept: IdentificationResult = None) -> tuple:
         """``family`` with the operator state at the start estimated with its
@@ -599,9 +601,7 @@ class CandidateFitter:
         """
         v2 = np.asarray(voltage2_V, dtype=float)
         y2 = np.asarray(displacement2_um, dtype=float)
-        x1 = self.operator_input(family)
-        x2 = v2 if family.input_stage is None else apply_input_stage(family.input_stage[0], family.input_stage[1],
-                                                                    v2, self.T)
+        x1, x2 = self.operator_input(family), self.operator_input(family, v2)
         shared, own = [{}, {}], [{}, {}]
         if family.cause == "creep" and family.extras:
             taus = np.asarray(family.parameters["time_constants_s"], dtype=float)
@@ -624,8 +624,7 @@ class CandidateFitter:
             column_transform=None if family.transform is None else family.transform.apply_to_columns,
             shared_extras=shared, own_extras=own, extra_nonnegative=family.nonnegative,
             fit_rows=[np.arange(x1.size) if rows is None else rows, np.arange(x2.size) if rows2 is None else rows2],
-            name=self.name,
-            description=self.description)
+            name=self.name, description=self.description)
 
     def finish(self, family: Family, result: IdentificationResult) -> CandidateFit:
         """The model of a fitted family, its state and prediction."""

@@ -282,6 +282,32 @@ def _invertibility_rows(template: HysteresisModel, n_columns: int, cubic: bool,
     return np.array(rows), np.array(rhs)
 
 
+def _constraint_rows(r, operator: str, input_offset_V: float, voltage_range_V, cubic: bool, n_params: int,
+                     operator_columns, operator_factors, margin, nonnegative_columns=()):
+    """Rows G, h with G θ >= h: the model invertible over ``voltage_range_V`` with slope >= ``margin``
+    (none when ``margin`` is None) and the coefficients in ``nonnegative_columns`` >= 0."""
+    template = HysteresisModel(0.0, 1.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
+                               input_offset_V=input_offset_V, voltage_range_V=tuple(voltage_range_V),
+                               name="template")
+    if margin is not None:
+        G, h = _invertibility_rows(template, n_params, cubic, operator_columns, margin, operator_factors)
+    else:
+        G, h = np.zeros((0, n_params)), np.zeros(0)
+    nonneg = list(nonnegative_columns)
+    if nonneg:
+        sign_rows = np.zeros((len(nonneg), n_params))
+        sign_rows[np.arange(len(nonneg)), nonneg] = 1.0
+        G, h = np.vstack([G, sign_rows]) if G.size else sign_rows, np.concatenate([h, np.zeros(len(nonneg))])
+    return G, h
+
+
+def _operator_weights(theta, anchor, factor, column_of) -> np.ndarray:
+    """Every operator's weight from the fitted coefficients: ``factor[i] × θ[column of anchor[i]]``
+    (0 for an operator tied to nothing)."""
+    return np.array([factor[i] * theta[column_of[anchor[i]]] if anchor[i] >= 0 else 0.0
+                     for i in range(len(anchor))])
+
+
 def _triangular_factor(A, y):
     """R (p×p, upper) and c = Qᵀy with A = QR, by CholeskyQR2.
 
@@ -735,19 +761,10 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
             raise IdentificationError(unexcited_message)
     effective_columns = [column_of.get(int(anchor[i]), -1) if anchor[i] >= 0 else -1 for i in range(r.size)]
     n_params = n_hyst + len(extras)
-    template = HysteresisModel(0.0, 1.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
-                               input_offset_V=input_offset, voltage_range_V=(lo, hi), name="template")
     mean_gain = float(np.ptp(y[rows])) / (hi - lo)
-    if min_slope_fraction >= 0:
-        G, h = _invertibility_rows(template, n_params, cubic, effective_columns,
-                                   min_slope_fraction * mean_gain, factor)
-    else:
-        G, h = np.zeros((0, n_params)), np.zeros(0)
-    nonneg = [n_hyst + j for j, key in enumerate(extras) if key in set(extra_nonnegative)]
-    if nonneg:
-        sign_rows = np.zeros((len(nonneg), n_params))
-        sign_rows[np.arange(len(nonneg)), nonneg] = 1.0
-        G, h = np.vstack([G, sign_rows]) if G.size else sign_rows, np.concatenate([h, np.zeros(len(nonneg))])
+    G, h = _constraint_rows(r, operator, input_offset, (lo, hi), cubic, n_params, effective_columns, factor,
+                            min_slope_fraction * mean_gain if min_slope_fraction >= 0 else None,
+                            [n_hyst + j for j, key in enumerate(extras) if key in set(extra_nonnegative)])
     extra_matrix = np.column_stack(list(extras.values())) if extras else np.zeros((v.size, 0))
     extra_w = extra_matrix[rows]
 
@@ -774,8 +791,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         return A, theta, active, condition, float(e @ e)
 
     def weights_of(theta):
-        return np.array([factor[i] * theta[column_of[anchor[i]]] if anchor[i] >= 0 else 0.0
-                         for i in range(r.size)])
+        return _operator_weights(theta, anchor, factor, column_of)
 
     def refine_state(state, A, theta):
         """Exact coordinate steps over every operator's state, weights fixed."""
@@ -1150,24 +1166,17 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
     names = ((["a1 u³"] if cubic else []) + ["a2 u"] + [f"operator {i + 1} (r = {r[i]:.4g} V)" for i in groups]
              + ["offset"] + [f"extra {key!r}" for key in shared_names] + own_names)
     effective_columns = [column_of.get(int(anchor[i]), -1) if anchor[i] >= 0 else -1 for i in range(r.size)]
-    template = HysteresisModel(0.0, 1.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
-                               input_offset_V=input_offset_V, voltage_range_V=(lo, hi), name="template")
     first_y = targets[0][rows[0]]
     mean_gain = float(np.ptp(first_y)) / (hi - lo) if hi > lo else 0.0
-    G, h = _invertibility_rows(template, n_params, cubic, effective_columns, min_slope_fraction * mean_gain,
-                               factor)
-    nonneg = [n_hyst + j for j, key in enumerate(shared_names) if key in set(extra_nonnegative)]
-    if nonneg:
-        sign_rows = np.zeros((len(nonneg), n_params))
-        sign_rows[np.arange(len(nonneg)), nonneg] = 1.0
-        G, h = np.vstack([G, sign_rows]), np.concatenate([h, np.zeros(len(nonneg))])
+    G, h = _constraint_rows(r, operator, input_offset_V, (lo, hi), cubic, n_params, effective_columns, factor,
+                            min_slope_fraction * mean_gain if min_slope_fraction >= 0 else None,
+                            [n_hyst + j for j, key in enumerate(shared_names) if key in set(extra_nonnegative)])
     A_all = np.vstack([block[k] for block, k in zip(blocks, rows)])
     y_all = np.concatenate([y[k] for y, k in zip(targets, rows)])
     theta, active, condition = solve_lsi(A_all, y_all, G, h, names)
     residual = y_all - A_all @ theta
 
-    weights = np.array([factor[i] * theta[column_of[anchor[i]]] if anchor[i] >= 0 else 0.0
-                        for i in range(r.size)])
+    weights = _operator_weights(theta, anchor, factor, column_of)
     identified = HysteresisModel(
         a1=float(theta[0]) if cubic else 0.0, a2=float(theta[n_lin - 1]), thresholds_V=tuple(r),
         weights_um_per_V=tuple(weights), operator=operator, input_offset_V=input_offset_V,
@@ -1175,9 +1184,9 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
         name=name or f"identified_{model}", description=description)
     coefficients = {key: float(theta[n_hyst + j]) for j, key in enumerate(shared_names)}
     coefficients.update({key: float(theta[n_hyst + n_shared + own_names.index(key)]) for key in own[0]})
-    first = blocks[0]
-    keep = np.r_[np.arange(n_hyst + n_shared), [n_hyst + n_shared + own_names.index(key) for key in own[0]]]
-    prediction = first[:, keep.astype(int)] @ theta[keep.astype(int)]
+    # the first record's prediction: its hysteresis, the shared extras and its own ones (it has no own offset)
+    keep = np.array(list(range(n_hyst + n_shared)) + [n_hyst + n_shared + own_names.index(key) for key in own[0]])
+    prediction = blocks[0][:, keep] @ theta[keep]
     not_identifiable = tuple(int(i) for i in range(r.size) if r[i] > 0 and anchor[i] != i)
     return IdentificationResult(
         model=identified, warmup_samples=0, prediction_um=prediction,
