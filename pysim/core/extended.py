@@ -203,6 +203,7 @@ class OutputStages:
     def __init__(self, sections=(), delay_samples: float = 0.0, creep_alpha=(), creep_beta=(),
                  creep_weights=(), drift=()):
         self.sections = _kernel.contiguous(np.reshape(sections, (-1, 5)))
+        self.delay_samples = float(delay_samples)
         whole = math.floor(delay_samples)
         self.delay_whole = int(whole)
         self.delay_fraction = float(delay_samples - whole)
@@ -254,6 +255,21 @@ class OutputStages:
                               _kernel.as_pointer(u), _kernel.as_pointer(t), _kernel.as_pointer(state),
                               _kernel.as_pointer(y))
         return y, state
+
+    def linear_part(self) -> "OutputStages":
+        """The sections and the delay alone: the part a change of the hysteresis
+        output passes through (the creep driven by the input and the drift do
+        not depend on it).
+
+        Examples
+        --------
+        >>> stages = OutputStages([tustin_first_order(0.01, 1e-3)], delay_samples=1.5,
+        ...                       creep_alpha=[0.9], creep_beta=[0.05], creep_weights=[0.2])
+        >>> part = stages.linear_part()
+        >>> part.sections.shape, part.delay_samples, part.creep_weights.size
+        ((1, 5), 1.5, 0)
+        """
+        return OutputStages(self.sections, self.delay_samples)
 
     def apply_to_columns(self, columns) -> np.ndarray:
         """Run every column of an (N, p) array through the stages on its own, each

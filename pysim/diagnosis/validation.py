@@ -32,10 +32,17 @@ import numpy as np
 from pysim.diagnosis.candidates import CandidateFit, initial_extended_state
 from pysim.diagnosis.input_stages import InputStageModel
 from pysim.diagnosis.residuals import noise_sigma, quantum
-from pysim.identification.identify import best_clamped_state, operator_bounds
+from pysim.identification.identify import (best_clamped_state, operator_bounds, refine_state_through_stage,
+                                          short_history_states)
 
 #: Alternations between the operator state and the offset/gain.
 STATE_ROUNDS = 4
+#: Turning levels of the short histories tried as starts (as in identify), and how many of the
+#: states they leave are kept as starts (the best by their error as they are).
+HISTORY_LEVELS = 9
+HISTORY_STARTS = 2
+#: Rounds of the search through the stages (a model whose stages spread a state's effect).
+STAGE_STATE_ROUNDS = 3
 #: Timing shifts of the second record tried, samples (see the module notes: none).
 TIMING_SHIFTS_SAMPLES = (0,)
 #: Stage modes at least this slow (samples) get their history's free response fitted.
@@ -180,10 +187,47 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
         g, _, free = _affine(p, y, modes)
         return state, float(np.sum((y - g * p - free) ** 2)), p
 
-    # three starts, as in identify: demagnetised, and the lowest and highest admissible states
-    # (a record that begins right after a fall from the top starts at the highest)
+    def through_stages(found):
+        """The exact steps above treat the model as static.  Its sections and
+        delay spread a state's effect over later samples (a creep mode keeps
+        moving after the operator has settled), so those steps can leave the
+        state far off; a scalar search per operator through the stages,
+        alternating with the offset, gain and modes, takes it from there."""
+        stage = plant.stages.runner.linear_part()
+        remembers = np.flatnonzero(np.any(high > low, axis=1))
+        if stage.state_size == 0 or remembers.size == 0:
+            return found
+        remembered = np.arange(int(remembers[-1]) + 1)
+        for _ in range(STAGE_STATE_ROUNDS):
+            state, sse, p = found
+            g, _, free = _affine(p, y, modes)
+            new = refine_state_through_stage(state, (y - g * p - free)[remembered], low, high, b,
+                                             stage.apply_to_columns, remembered, gain=g)
+            p_new = predict(new)
+            g, _, free = _affine(p_new, y, modes)
+            sse_new = float(np.sum((y - g * p_new - free) ** 2))
+            if not sse_new < sse * (1.0 - 1e-4):
+                break
+            found = (new, sse_new, p_new)
+        return found
+
+    def as_is(state):
+        p = predict(state)
+        g, _, free = _affine(p, y, modes)
+        return state, float(np.sum((y - g * p - free) ** 2)), p
+
+    # starts as in identify: demagnetised, the lowest and highest admissible states (a record that
+    # begins right after a fall from the top starts at the highest), and the best two of the states
+    # short histories leave, over the range of either record -- each as it is and after the exact
+    # steps, which treat the model as static and can lead a model with stages away from a good start
     starts = [np.clip(np.zeros(h.n_operators), low[0], high[0]), low[0].copy(), high[0].copy()]
-    state, _, p = min((estimate(start) for start in starts), key=lambda found: found[1])
+    span = (min(float(x.min()), h.voltage_range_V[0]), max(float(x.max()), h.voltage_range_V[1]))
+    histories = [as_is(np.clip(state, low[0], high[0])) for state in
+                 short_history_states(np.linspace(*span, HISTORY_LEVELS) - h.input_offset_V, h.thresholds_V,
+                                      h.operator)]
+    histories = sorted(histories, key=lambda found: found[1])[:HISTORY_STARTS]
+    found = [estimate(start) for start in starts + [start for start, _, _ in histories]] + histories
+    state, _, p = through_stages(min(found, key=lambda found: found[1]))
     lo, hi = train_range_V
     level = v
     if isinstance(model, InputStageModel) and train_voltage_V is not None:

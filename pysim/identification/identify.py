@@ -423,6 +423,125 @@ def best_clamped_state(target, low, high, s_low: float, s_high: float) -> float:
     return float(s_star[int(np.argmin(value))])
 
 
+def refine_state_through_stage(state, residual_um, low, high, weights_um_per_V, transform, window,
+                                gain: float = 1.0) -> np.ndarray:
+    """Each operator's state before the first sample, for fixed weights, through
+    a linear output stage.
+
+    The stage spreads a state's effect over later samples, so the exact steps
+    of a static model do not apply; a bounded scalar search per operator does
+    (the error is piecewise quadratic in the state).  The error is taken over
+    ``window``, which a caller ends at the last sample that still remembers the
+    state: a lightly damped stage would otherwise let the state ring on and fit
+    a disturbance late in the record.
+
+    Parameters
+    ----------
+    state : ndarray
+        The current state, one value per operator (V).
+    residual_um : ndarray
+        The error over ``window`` of the model with ``state`` (µm).
+    low, high : ndarray
+        ``(N, n)`` bounds of each operator's output (:func:`operator_bounds`).
+    weights_um_per_V : ndarray
+    transform : callable
+        ``transform(columns)``: the stage applied to each ``(m, k)`` column on
+        its own, from rest at its first value (as
+        :meth:`pysim.core.extended.OutputStages.apply_to_columns`).
+    window : ndarray
+        Increasing sample indices the error is taken on.
+    gain : float
+        A factor on the model's output (the sensor gain of another record).
+
+    Returns
+    -------
+    ndarray
+        The refined state; an operator's state changes only where that lowers
+        the error.
+
+    Examples
+    --------
+    A one-sample delay: the static exact step would fit the state to the wrong
+    samples; through the stage the state that made the record is found.
+
+    >>> import numpy as np
+    >>> from pysim.core.extended import OutputStages
+    >>> v = np.r_[np.full(5, 1.0), np.linspace(1.0, 3.0, 5)]
+    >>> low, high = operator_bounds(v, [1.0], "osp", 0.0)
+    >>> delay = OutputStages(delay_samples=1.0).apply_to_columns
+    >>> y = delay(np.clip(0.5, low, high))[:, 0]
+    >>> start = np.array([0.0])
+    >>> e = y - delay(np.clip(start, low, high))[:, 0]
+    >>> refine_state_through_stage(start, e, low, high, np.array([1.0]), delay, np.arange(10)).round(3)
+    array([0.5])
+    """
+    state = np.array(state, dtype=float)
+    window = np.asarray(window)
+    if window.size == 0:
+        return state
+    stop = int(window[-1]) + 1
+    residual = np.array(residual_um, dtype=float)
+    for i in range(state.size):
+        if weights_um_per_V[i] == 0.0 or not high[0, i] > low[0, i]:     # no weight, or a state fixed from the start
+            continue
+        current = np.minimum(np.maximum(state[i], low[:stop, i]), high[:stop, i])
+
+        def effect(s, i=i, current=current):
+            change = np.minimum(np.maximum(s, low[:stop, i]), high[:stop, i]) - current
+            return gain * weights_um_per_V[i] * np.asarray(transform(change[:, None]), dtype=float)[:, 0][window]
+
+        def cost(s, effect=effect):
+            e = residual - effect(s)
+            return float(e @ e)
+
+        found = minimize_scalar(cost, bounds=(low[0, i], high[0, i]), method="bounded",
+                                options={"xatol": 1e-4 * (high[0, i] - low[0, i])})
+        if found.fun < float(residual @ residual):
+            residual = residual - effect(found.x)
+            state[i] = found.x
+    return state
+
+
+def short_history_states(levels_V, thresholds_V, operator: str = "osp") -> list:
+    """Operator states left by short histories: the input came from far below
+    or above, turned at a level ``e2`` (and at ``e3``, back towards where it came
+    from), then went to the record's first sample.  Starts for the estimate of
+    an unknown initial state; clip them to the admissible band
+    (:func:`operator_bounds`) before use.
+
+    Parameters
+    ----------
+    levels_V : array_like
+        The turning levels tried, relative to the model's input offset (V).
+    thresholds_V : array_like
+    operator : str
+
+    Returns
+    -------
+    list of ndarray
+
+    Examples
+    --------
+    Up from far below to 10 V: each operator lags the input by its threshold.
+
+    >>> short_history_states([10.0], [0.0, 4.0])[0].tolist()
+    [10.0, 6.0]
+    >>> len(short_history_states([0.0, 5.0, 10.0], [0.0, 4.0]))     # 2 x 3 single turns, 2 x 3 double
+    12
+    """
+    r = np.asarray(thresholds_V, dtype=float)
+    probe = HysteresisModel(0.0, 0.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
+                            input_offset_V=0.0, name="probe")
+    found = []
+    for origin in (-_BIG, _BIG):
+        for e2 in levels_V:
+            found.append(probe.simulate([e2], np.full(r.size, origin), return_state=True)[1])
+            for e3 in levels_V:
+                if (e3 - e2) * origin > 0:       # e3 turns back towards the origin's side
+                    found.append(probe.simulate([e2, e3], np.full(r.size, origin), return_state=True)[1])
+    return found
+
+
 def first_reversal(voltage_V) -> int:
     """Index of the first sample after which the input moves against its first direction
     (the length of the record if it never does)."""
@@ -860,19 +979,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         return s
 
     def history_states():
-        """Operator states left by short histories: the input came from far
-        below or above, turned at e2 (and e3), then went to the first sample."""
-        levels = np.linspace(lo, hi, 9) - input_offset
-        probe = HysteresisModel(0.0, 0.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
-                                input_offset_V=0.0, name="probe")
-        found = []
-        for origin in (-_BIG, _BIG):
-            for e2 in levels:
-                found.append(probe.simulate([e2], np.full(r.size, origin), return_state=True)[1])
-                for e3 in levels:
-                    if (e3 - e2) * origin > 0:       # e3 turns back towards the origin's side
-                        found.append(probe.simulate([e2, e3], np.full(r.size, origin), return_state=True)[1])
-        return [np.clip(s, low[0], high[0]) for s in found]
+        return [np.clip(s, low[0], high[0])
+                for s in short_history_states(np.linspace(lo, hi, 9) - input_offset, r, operator)]
 
     def screen(states):
         """Unconstrained least-squares error of each state (Gram matrices:
@@ -960,45 +1068,17 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         return state, A_t, theta_t, active_t, condition_t, float(e @ e)
 
     def refine_through_transform(state, A_t, theta):
-        """Each operator's state for fixed weights, through the stage: the stage
-        spreads a state's effect over later samples, so the exact steps above do
-        not apply; a bounded scalar search per operator does (its error is
-        piecewise quadratic in the state).  The error is taken up to the last
-        sample that still remembers the state: a lightly damped stage would
-        otherwise let the state ring on and fit a disturbance late in the
-        record."""
-        state = state.copy()
-        if window.size == 0:
-            return state
-        b = weights_of(theta)
-        residual = (y - A_t @ theta)[window]
-        for i in range(r.size):
-            if b[i] == 0.0 or not high[0, i] > low[0, i]:       # no weight, or a state fixed from the start
-                continue
-            current = np.minimum(np.maximum(state[i], low[:, i]), high[:, i])
-
-            def effect(s, i=i, current=current):
-                change = np.minimum(np.maximum(s, low[:stop, i]), high[:stop, i]) - current[:stop]
-                return b[i] * np.asarray(column_transform(change[:, None]), dtype=float)[:, 0][window]
-
-            def cost(s, effect=effect):
-                e = residual - effect(s)
-                return float(e @ e)
-
-            found = minimize_scalar(cost, bounds=(low[0, i], high[0, i]), method="bounded",
-                                    options={"xatol": 1e-4 * (high[0, i] - low[0, i])})
-            if found.fun < float(residual @ residual):
-                residual = residual - effect(found.x)
-                state[i] = found.x
-        return state
+        """Each operator's state for fixed weights, through the stage (see
+        :func:`refine_state_through_stage`)."""
+        return refine_state_through_stage(state, (y - A_t @ theta)[remembered], low, high, weights_of(theta),
+                                          column_transform, remembered)
 
     if column_transform is not None:
-        # the fitted samples that still remember the state, and where they end (the stage is causal:
-        # the refinement needs no sample after them)
+        # the fitted samples up to the last that still remembers the state (the stage is causal: the
+        # refinement needs no sample after them)
         remembers = np.flatnonzero(np.any(high > low, axis=1))
-        window = np.arange(v.size)[rows]
-        window = window[window <= (remembers[-1] if remembers.size else -1)]
-        stop = int(window[-1]) + 1 if window.size else 0
+        remembered = np.arange(v.size)[rows]
+        remembered = remembered[remembered <= (remembers[-1] if remembers.size else -1)]
         # the state estimated without the stage competes with the demagnetised one, and the better
         # one is refined through the stage
         best = min((transformed(state) for state in ([state0, demagnetised] if estimate else [state0])),
