@@ -6,8 +6,11 @@ Neither is an effect of the actuator, so :func:`score_on_record` re-fits
 exactly these, and nothing else, before it scores:
 
 - the operator state before the second record's first sample (exact steps for
-  each operator with the model's weights fixed; see
-  :func:`pysim.identification.identify.best_clamped_state`);
+  each operator with the model's weights fixed, see
+  :func:`pysim.identification.identify.best_clamped_state`, from identify's
+  starts and from the states short histories leave; then, for a model whose
+  sections or delay spread a state's effect over later samples, a search per
+  operator through them, :func:`pysim.identification.identify.refine_state_through_stage`);
 - the sensor offset and gain (``y ≈ gain · model + offset``, least squares);
 - the state of the output stages' slow modes (creep modes and a lag slower
   than ``MIN_HISTORY_MODE_SAMPLES``): a history before the second record leaves
