@@ -354,6 +354,18 @@ def test_a_joint_fit_shares_the_shared_extras_and_keeps_each_records_own():
                            own_extras=[{"trend": ramps[0]}, {"second trend": ramps[1]}])
     assert fit.extra_coefficients == pytest.approx({"slow": 0.7, "trend": 0.4}, abs=1e-9)
     np.testing.assert_allclose(fit.model.weights_um_per_V, truth.weights_um_per_V, atol=1e-9)
+    # every record's prediction carries its own offset and extras: each record is reproduced
+    assert len(fit.record_predictions_um) == 2
+    for (_, y), predicted in zip(shaped, fit.record_predictions_um):
+        np.testing.assert_allclose(predicted, y, atol=1e-8)
+    # a record's samples left out of the fit are predicted from the others (noise-free: exactly)
+    rows2 = np.arange(records[1][0].size)
+    part = identify_jointly(shaped, thresholds_V=truth.thresholds_V, input_offset_V=0.0, initial_states=states,
+                            voltage_range_V=(0.0, 100.0), shared_extras=[{"slow": s} for s in slow],
+                            own_extras=[{"trend": ramps[0]}, {"second trend": ramps[1]}],
+                            fit_rows=[np.arange(records[0][0].size), rows2[rows2.size // 3:]])
+    np.testing.assert_allclose(part.record_predictions_um[1][: rows2.size // 3], shaped[1][1][: rows2.size // 3],
+                               atol=1e-7)
     # a coefficient held non-negative stays so, and the constrained fit is no better
     held = identify_jointly(shaped, thresholds_V=truth.thresholds_V, input_offset_V=0.0, initial_states=states,
                             voltage_range_V=(0.0, 100.0), shared_extras=[{"slow": -s} for s in slow],

@@ -117,6 +117,9 @@ class IdentificationResult:
     condition_number : float
         2-norm condition number of the column-scaled design matrix on the
         fitted samples (large: weakly determined parameters).
+    record_predictions_um : tuple of ndarray
+        From :func:`identify_jointly`: every record's prediction over all its
+        samples, with that record's own offset and extras (empty otherwise).
     """
 
     model: HysteresisModel
@@ -133,6 +136,7 @@ class IdentificationResult:
     merged_into: dict = field(default_factory=dict)
     operator_travel_V: np.ndarray = None
     condition_number: float = float("nan")
+    record_predictions_um: tuple = ()
     unidentified_reason: str = ""
 
     def parameters(self) -> dict:
@@ -1276,7 +1280,8 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
         initial_state=np.asarray(initial_states[0], dtype=float), initial_state_estimated=False,
         not_identifiable_operators=not_identifiable,
         merged_into={int(i): int(anchor[i]) for i in not_identifiable if anchor[i] >= 0},
-        operator_travel_V=travel, condition_number=condition)
+        operator_travel_V=travel, condition_number=condition,
+        record_predictions_um=tuple(block @ theta for block in blocks))
 
 
 def start_transient(voltage_V, displacement_um, **settings) -> int:
