@@ -32,6 +32,9 @@ from pysim.diagnosis.residuals import binned_mean, cross_correlation, spectrum, 
 
 BASE_COLOUR, EXTENDED_COLOUR, MEASURED_COLOUR = "tab:red", "tab:blue", "black"
 MAX_SCATTER = 6000
+#: A title line longer than this (characters) is broken before the gain: the overview's title
+#: holds about 150 characters of its font on one line.
+TITLE_LINE_CHARS = 100
 
 PLOTS = {
     "overview.png": "input (top), measured and simulated displacement (middle) and the residuals "
@@ -113,8 +116,11 @@ def plot_overview(d: Diagnosis, path: Path):
         _shade(ax, d)
     axes[0].plot(t, d.voltage_V, color="0.3", lw=0.8)
     axes[0].set_ylabel("voltage (V)")
-    axes[0].set_title(f"{Path(d.source).name if d.source else 'record'}: cause named {d.cause}, "
-                      f"cross-validated gain {_explaining(d).gain_pct:.1f} %"
+    named = (f"cause named {d.cause}" if len(d.causes) <= 1 else
+             f"set named {{{', '.join(d.causes)}}}, model delivered: {d.cause}")
+    headline = f"{Path(d.source).name if d.source else 'record'}: {named}"
+    axes[0].set_title(headline + ("\n" if len(headline) > TITLE_LINE_CHARS else ", ")
+                      + f"cross-validated gain {_explaining(d).gain_pct:.1f} %"
                       + (" (its model is not delivered)" if d.withheld else "")
                       + ("\n(the baseline fitted on the whole record, the extended model on it and the second record;"
                          "\n" if d.fitted_on_both_records else "\n(models fitted on the whole record; ")
