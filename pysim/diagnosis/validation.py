@@ -169,6 +169,12 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
     modes = history_modes(plant, v.size, sample_period_s)
     moving = [np.flatnonzero(high[:, i] - low[:, i] > 0) for i in range(h.n_operators)]
 
+    def as_is(state):
+        """The state, its error sum (the offset, gain and modes fitted) and its prediction."""
+        p = predict(state)
+        g, _, free = _affine(p, y, modes)
+        return state, float(np.sum((y - g * p - free) ** 2)), p
+
     def estimate(state):
         """Exact steps per operator from ``state``, alternating with the offset,
         gain and modes; the state, its error sum and its prediction."""
@@ -186,9 +192,7 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
                 new = best_clamped_state(target, L, U, low[0, i], high[0, i])
                 e[k] -= g * b[i] * (np.clip(new, L, U) - current)
                 state[i] = new
-        p = predict(state)
-        g, _, free = _affine(p, y, modes)
-        return state, float(np.sum((y - g * p - free) ** 2)), p
+        return as_is(state)
 
     def through_stages(found):
         """The exact steps above treat the model as static.  Its sections and
@@ -204,20 +208,12 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
         for _ in range(STAGE_STATE_ROUNDS):
             state, sse, p = found
             g, _, free = _affine(p, y, modes)
-            new = refine_state_through_stage(state, (y - g * p - free)[remembered], low, high, b,
-                                             stage.apply_to_columns, remembered, gain=g)
-            p_new = predict(new)
-            g, _, free = _affine(p_new, y, modes)
-            sse_new = float(np.sum((y - g * p_new - free) ** 2))
-            if not sse_new < sse * (1.0 - 1e-4):
+            refined = as_is(refine_state_through_stage(state, (y - g * p - free)[remembered], low, high, b,
+                                                       stage.apply_to_columns, remembered, gain=g))
+            if not refined[1] < sse * (1.0 - 1e-4):
                 break
-            found = (new, sse_new, p_new)
+            found = refined
         return found
-
-    def as_is(state):
-        p = predict(state)
-        g, _, free = _affine(p, y, modes)
-        return state, float(np.sum((y - g * p - free) ** 2)), p
 
     # starts as in identify: demagnetised, the lowest and highest admissible states (a record that
     # begins right after a fall from the top starts at the highest), and the best two of the states
