@@ -1540,9 +1540,10 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 f"{errors[first]:.3g} σ² for {first}'s, by more than the noise can make), so it is the model "
                 "delivered until the excitation tells the set apart")
             verdict = _delivering(verdict, validation, member, delivery_remark, delivered_sigma2=errors)
+    joint_first = {}     # cause -> its fit on both records' median held-out block of the first record (µm²)
     if validation is not None and len(verdict["causes"]) > 1 and not unidentified and not shape:
         found = _best_fitted_on_both_records(fitter, candidates, tuple(verdict["causes"]), v2, y2, T, folds,
-                                             noise, validation["noise_um"])
+                                             noise, validation["noise_um"], joint_first)
         if found is not None:
             sentence = ("; but" if delivery_remark else ";") + _both_records_sentence(*found, verdict["causes"][0])
             delivery_remark += sentence
@@ -1580,7 +1581,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         # the delivered model's hysteresis and effect parameters are refitted on both records, when
         # that predicts the first record's held-out blocks no worse (not after a shape correction:
         # its scores are of corrected predictions)
-        joint = _fitted_on_both_records(fitter, extended, v2, y2, T, folds, noise)
+        joint = _fitted_on_both_records(fitter, extended, v2, y2, T, folds, noise, joint_first.get(extended.cause))
         if joint is not None:
             fit, first_rms_pct, second_rms_pct = joint
             both_sentence = (
@@ -1997,7 +1998,7 @@ def _joint_held_out_second(fitter: CandidateFitter, setting, v2, n_blocks: int =
 
 
 def _fitted_on_both_records(fitter: CandidateFitter, extended: Evaluation, v2, y2, sample_period_s: float,
-                           folds, noise_um: float):
+                           folds, noise_um: float, held_out_first_um2: float = None):
     """``(fit, first_rms_pct, second_rms_pct)``: ``extended``'s family with its linear parameters
     fitted on the first record and the second together (:meth:`CandidateFitter.fit_jointly`), and
     its RMS error on each record (% of the range of the samples fitted); None when it cannot be
@@ -2008,7 +2009,8 @@ def _fitted_on_both_records(fitter: CandidateFitter, extended: Evaluation, v2, y
     input may cost the first record's own blocks a little (0.013 and 0.015 σ² on independent seeds
     162 and 258, whose third records it then predicted 3.6 and 11 times better than the fit on the
     first record alone); one whose shape parameters do not carry to the second record costs them
-    far more (1.46 σ² on seed 1).
+    far more (1.46 σ² on seed 1).  ``held_out_first_um2``: that median block when it is known
+    already (:func:`_best_fitted_on_both_records` computed it for a set's members).
 
     The second record enters as its scoring left it: the operator state estimated there, the
     samples inside the first record's range, the displacement divided by the sensor gain found
@@ -2023,7 +2025,9 @@ def _fitted_on_both_records(fitter: CandidateFitter, extended: Evaluation, v2, y
         return None
     family, y2_corrected, state2, settings, _ = setting
     try:
-        if _joint_held_out_first(fitter, setting, v2, folds) > extended.mse_um2 + NEAR_NOISE_FRACTION * noise_um**2:
+        if held_out_first_um2 is None:
+            held_out_first_um2 = _joint_held_out_first(fitter, setting, v2, folds)
+        if held_out_first_um2 > extended.mse_um2 + NEAR_NOISE_FRACTION * noise_um**2:
             return None
         result = fitter.fit_jointly(family, v2, y2_corrected, state2, **settings)
         fit = fitter.finish(family, result)
@@ -2036,7 +2040,8 @@ def _fitted_on_both_records(fitter: CandidateFitter, extended: Evaluation, v2, y
 
 
 def _best_fitted_on_both_records(fitter: CandidateFitter, candidates: dict, causes, v2, y2,
-                                 sample_period_s: float, folds, noise1_um: float, noise2_um: float):
+                                 sample_period_s: float, folds, noise1_um: float, noise2_um: float,
+                                 joint_first: dict = None):
     """The member of a named set whose structure, fitted on both records, predicts held-out blocks
     of both best: better than the member delivered so far (``causes[0]``) by at least
     ``NEAR_NOISE_FRACTION`` σ² in the median held-out block of *each* record.  None when no
@@ -2057,17 +2062,21 @@ def _best_fitted_on_both_records(fitter: CandidateFitter, candidates: dict, caus
     creep) better by 0.13 σ²; fitted on both, creep's predicted the held-out blocks better on
     both records (0.09 and 0.08 σ²), and the third record at 0.28 of the plain fit's RMS, drift's at 1.55.
 
+    ``joint_first``, when given, receives each member's median held-out block of the first
+    record (µm²), so the fit on both records of the member then delivered need not repeat it.
+
     Returns
     -------
     (member, {cause: (first record σ², second record σ²)} for the member and ``causes[0]``) or None.
     """
+    joint_first = {} if joint_first is None else joint_first
     settings, first = {}, {}
     for cause in causes:
         setting = _joint_setting(candidates[cause], v2, y2, sample_period_s)
         if setting is None:
             continue
         try:
-            score = _joint_held_out_first(fitter, setting, v2, folds)
+            score = joint_first[cause] = _joint_held_out_first(fitter, setting, v2, folds)
         except (IdentificationError, DiagnosisError):
             continue
         if score <= candidates[cause].mse_um2 + NEAR_NOISE_FRACTION * noise1_um**2:

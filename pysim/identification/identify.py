@@ -1281,7 +1281,7 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
         not_identifiable_operators=not_identifiable,
         merged_into={int(i): int(anchor[i]) for i in not_identifiable if anchor[i] >= 0},
         operator_travel_V=travel, condition_number=condition,
-        record_predictions_um=tuple(block @ theta for block in blocks))
+        record_predictions_um=(prediction,) + tuple(block @ theta for block in blocks[1:]))
 
 
 def start_transient(voltage_V, displacement_um, **settings) -> int:
