@@ -68,6 +68,71 @@ def over_seeds(evaluate, first_seed: int, count: int, describe) -> list:
     return rows
 
 
+def print_outcome_summary(rows, effects) -> None:
+    """Print the outcome count of every effect in ``effects`` and one line of totals: right, false
+    alarms, refusals, and on how many effect records the model delivered predicts the third record
+    better (ratio below 0.999) or worse (above 1.001) than the plain fit.  ``rows`` hold ``effect``,
+    ``outcome`` and, unless refused, ``third_extended_over_baseline``."""
+    from collections import Counter
+
+    counts = Counter((r["effect"], r["outcome"]) for r in rows)
+    print("\noutcome by effect:")
+    for effect in effects:
+        line = ", ".join(f"{outcome} {n}" for (e, outcome), n in sorted(counts.items()) if e == effect)
+        print(f"  {effect:6}: {line}")
+    with_effect = [r for r in rows if r["effect"] != "none" and "third_extended_over_baseline" in r]
+    print(f"right {sum(r['outcome'] == 'right' for r in rows)}/{len(rows)}; false alarms "
+          f"{sum(r['outcome'] == 'false alarm' for r in rows)}/{sum(r['effect'] == 'none' for r in rows)}; refusals "
+          f"{sum(r['outcome'] == 'refused' for r in rows)}; third record, effect records: extended better on "
+          f"{sum(r['third_extended_over_baseline'] < 0.999 for r in with_effect)}, worse on "
+          f"{sum(r['third_extended_over_baseline'] > 1.001 for r in with_effect)} of {len(with_effect)}")
+
+
+def diagnose_and_score(row: dict, first, second, truth: str, third_rms_pct):
+    """Diagnose the record ``first`` = (voltage V, displacement µm, sample rate Hz) validated on
+    ``second`` and add to ``row``: ``seconds``, ``named``, ``outcome`` (:func:`named_and_outcome`)
+    and the third record's ``third_baseline_rms_pct`` and ``third_extended_over_baseline``
+    (``third_rms_pct(model)``: that model's error there, %); a refusal is an outcome (``refused``,
+    with its ``message``).  Returns the diagnosis (None when refused)."""
+    from pysim.core.errors import PiezoMPIError
+    from pysim.diagnosis import diagnose
+
+    start = time.perf_counter()
+    try:
+        d = diagnose(*first, validate=tuple(second))
+    except PiezoMPIError as exc:
+        row.update(outcome="refused", named="refused", message=str(exc), seconds=time.perf_counter() - start)
+        return None
+    row["seconds"] = time.perf_counter() - start
+    row["named"], row["outcome"] = named_and_outcome(d, truth)
+    base, ext = third_rms_pct(d.baseline.model), third_rms_pct(d.extended.model)
+    row.update(third_baseline_rms_pct=base, third_extended_over_baseline=ext / base if base > 0 else float("nan"))
+    return d
+
+
+def named_and_outcome(diagnosis, truth: str) -> tuple:
+    """``(named, outcome)`` of a diagnosis of a record whose hidden effect has the catalogue name
+    ``truth`` (``"none"`` without one): ``named`` is the set joined by ``|``; ``outcome`` is
+    ``right`` (the truth alone or in the named set, ``none`` for none), ``false alarm``, ``missed``,
+    ``unexplained`` or ``wrong``."""
+    named = tuple(diagnosis.causes) if len(diagnosis.causes) > 1 else (diagnosis.cause,)
+    if truth == "none":
+        outcome = "right" if diagnosis.cause == "none" else "false alarm"
+    elif truth in named:
+        outcome = "right"
+    else:
+        outcome = {"none": "missed", "unexplained": "unexplained"}.get(diagnosis.cause, "wrong")
+    return "|".join(named), outcome
+
+
+def settled_rms_pct(model, voltage_V, clean_um, settle_samples: int) -> float:
+    """RMS error (% of the record's range) of ``model.simulate(voltage_V)`` against the noise-free
+    ``clean_um`` after its first ``settle_samples`` samples."""
+    predicted = np.asarray(model.simulate(voltage_V), dtype=float)
+    part = slice(int(settle_samples), None)
+    return float(np.sqrt(np.mean((predicted[part] - clean_um[part]) ** 2)) / np.ptp(clean_um) * 100)
+
+
 def at_most(value: float, limit: float, unit: str = "") -> tuple:
     """``(target text, met)`` for a "no more than" target."""
     return f"<= {limit:g}{(' ' + unit) if unit else ''}", bool(value <= limit)

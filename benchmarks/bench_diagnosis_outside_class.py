@@ -25,13 +25,9 @@ on a grid eight times finer than the samples).  Progress goes to stderr.
 from __future__ import annotations
 
 import sys
-import time
-from collections import Counter
 from pathlib import Path
 
-import numpy as np
-
-from bench_common import over_seeds, seed_arguments
+from bench_common import diagnose_and_score, over_seeds, print_outcome_summary, seed_arguments, settled_rms_pct
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 if str(TESTS) not in sys.path:
@@ -43,40 +39,19 @@ SETTLE_S = 0.1
 
 
 def _rms_pct(model, record) -> float:
-    predicted = np.asarray(model.simulate(record.voltage_V), dtype=float)
-    part = slice(int(SETTLE_S * record.sample_rate_hz), None)
-    return float(np.sqrt(np.mean((predicted[part] - record.clean_um[part]) ** 2)) / np.ptp(record.clean_um) * 100)
+    return settled_rms_pct(model, record.voltage_V, record.clean_um, SETTLE_S * record.sample_rate_hz)
 
 
 def evaluate(seed: int) -> dict:
     """Diagnose one pair and score it."""
-    from pysim.core.errors import PiezoMPIError
-    from pysim.diagnosis import diagnose
-
     pair = records.make_outside_pair(seed)
     row = {"seed": seed, "plant": pair.plant, "effect": pair.effect,
            "inputs": f"{pair.train.input_kind}/{pair.validation.input_kind}/{pair.test.input_kind}"}
-    t0 = time.perf_counter()
-    try:
-        d = diagnose(pair.train.voltage_V, pair.train.displacement_um, pair.train.sample_rate_hz,
-                     validate=(pair.validation.voltage_V, pair.validation.displacement_um,
-                               pair.validation.sample_rate_hz))
-    except PiezoMPIError as exc:
-        row.update(outcome="refused", named="refused", message=str(exc), seconds=time.perf_counter() - t0)
-        return row
-    row["seconds"] = time.perf_counter() - t0
-    named = tuple(d.causes) if len(d.causes) > 1 else (d.cause,)
-    row["named"] = "|".join(named)
-    row["shape_corrected"] = sorted(d.shape)
-    truth = pair.catalogue_name
-    if pair.effect == "none":
-        row["outcome"] = "right" if d.cause == "none" else "false alarm"
-    elif truth in named:
-        row["outcome"] = "right"
-    else:
-        row["outcome"] = {"none": "missed", "unexplained": "unexplained"}.get(d.cause, "wrong")
-    base, ext = _rms_pct(d.baseline.model, pair.test), _rms_pct(d.extended.model, pair.test)
-    row.update(third_baseline_rms_pct=base, third_extended_over_baseline=ext / base if base > 0 else float("nan"))
+    records_given = [(r.voltage_V, r.displacement_um, r.sample_rate_hz) for r in (pair.train, pair.validation)]
+    d = diagnose_and_score(row, *records_given, "none" if pair.effect == "none" else pair.catalogue_name,
+                           lambda model: _rms_pct(model, pair.test))
+    if d is not None:
+        row["shape_corrected"] = sorted(d.shape)
     return row
 
 
@@ -91,17 +66,7 @@ def main(argv=None) -> int:
         print(f"{r['seed']:4d} {r['plant']:9} {r['effect']:6} {r['inputs']:34} {r['named']:34} {r['outcome']:12} "
               f"{','.join(r.get('shape_corrected', [])) or '-':13} {r.get('third_baseline_rms_pct', float('nan')):10.3f} "
               f"{r.get('third_extended_over_baseline', float('nan')):7.3f}")
-    counts = Counter((r["effect"], r["outcome"]) for r in rows)
-    print("\noutcome by effect:")
-    for effect in records.EFFECTS:
-        line = ", ".join(f"{outcome} {n}" for (e, outcome), n in sorted(counts.items()) if e == effect)
-        print(f"  {effect:6}: {line}")
-    effects = [r for r in rows if r["effect"] != "none" and "third_extended_over_baseline" in r]
-    print(f"right {sum(r['outcome'] == 'right' for r in rows)}/{len(rows)}; false alarms "
-          f"{sum(r['outcome'] == 'false alarm' for r in rows)}/{sum(r['effect'] == 'none' for r in rows)}; refusals "
-          f"{sum(r['outcome'] == 'refused' for r in rows)}; third record, effect records: extended better on "
-          f"{sum(r['third_extended_over_baseline'] < 0.999 for r in effects)}, worse on "
-          f"{sum(r['third_extended_over_baseline'] > 1.001 for r in effects)} of {len(effects)}")
+    print_outcome_summary(rows, records.EFFECTS)
     return 0
 
 
