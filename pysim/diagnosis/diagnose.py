@@ -1739,7 +1739,14 @@ def _validate(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_v
     # the second record's own rate-independent fit: identified at most once, only when a rule needs it
     own_rate_independent_excess = functools.cache(lambda: _rate_independent_excess(fitter, v2, y2, memory2))
 
-    if (verdict["cause"] != cv_verdict["cause"] and excess2 >= UNEXPLAINED_LEVEL * noise2**2
+    # "different" includes the same first cause in another set: a second record that measures the
+    # hysteresis transfer must not drop a look-alike the first record could not rule out either
+    # (band-limited noise with a 2-sample delay: {creep, lag, delay, ...} by cross-validation, the
+    # slow ramps of the second record missed at 100 σ² and the delay's model missing them 0.1 % more
+    # than creep's)
+    changed = (verdict["cause"] != cv_verdict["cause"]
+               or set(verdict.get("causes", ())) != set(cv_verdict.get("causes", ())))
+    if (changed and excess2 >= UNEXPLAINED_LEVEL * noise2**2
             and own_rate_independent_excess() < min(UNEXPLAINED_LEVEL,
                                                     (1.0 - DECISIVE_SHARE) * excess2 / noise2**2)):
         # the first record's models miss the second record by far more than its own rate-independent
