@@ -279,6 +279,7 @@ def test_a_second_record_that_only_measures_the_hysteresis_transfer_does_not_nar
     if benchmarks not in sys.path:
         sys.path.insert(0, benchmarks)
     import bench_diagnosis_excitations as bench
+    from bench_common import settled_rms_pct
 
     rec = bench.make_records(21)
     assert (rec["kind"], rec["effect"]) == ("band_noise", "delay")
@@ -291,10 +292,8 @@ def test_a_second_record_that_only_measures_the_hysteresis_transfer_does_not_nar
     noise2 = d.validation["noise_um"]
     miss = second["displacement_um"] - d.baseline.validation["prediction_um"]
     assert np.mean(miss[1:-1] ** 2) > 30 * noise2**2          # the trap: the transfer error
-    third = rec["test"]
-    settle = int(bench.SETTLE_S * bench.SAMPLE_RATE_HZ)
-    error = {label: np.sqrt(np.mean((np.asarray(model.simulate(third["voltage_V"]))[settle:]
-                                     - third["clean_um"][settle:]) ** 2))
+    third, settle = rec["test"], bench.SETTLE_S * bench.SAMPLE_RATE_HZ
+    error = {label: settled_rms_pct(model, third["voltage_V"], third["clean_um"], settle)
              for label, model in (("plain", d.baseline.model), ("delivered", d.extended.model))}
     assert error["delivered"] < 0.9 * error["plain"], error
 
