@@ -298,6 +298,41 @@ def test_a_second_record_that_only_measures_the_hysteresis_transfer_does_not_nar
     assert error["delivered"] < 0.9 * error["plain"], error
 
 
+
+@pytest.mark.xfail(reason="known false alarm: operators in states no other block shows (docs/diagnosis, "
+                          "'Where the method still fails'); a fix tried cost detections elsewhere",
+                   raises=AssertionError, strict=False)
+def test_minor_loops_without_an_effect_name_nothing():
+    """Truth: a plain MPI plant of the third generator (``make_plant(default_rng(1003))``, at rest at
+    0 V), no effect, 0.2 % noise; the input: loops of 0.4 of the range at 2 Hz whose centre wanders
+    at 0.3 Hz and that reach neither end; the second record random ramps.  Creep is named: in the
+    held-out blocks the rate-independent models extrapolate where operators sit in states the other
+    blocks never showed (median block 2.35 σ² for ten operators, 1.03 for the true thresholds), and
+    creep's model extrapolates less.  Kept as the case a fix must pass."""
+    import sys
+    from pathlib import Path
+
+    benchmarks = str(Path(__file__).resolve().parents[1] / "benchmarks")
+    if benchmarks not in sys.path:
+        sys.path.insert(0, benchmarks)
+    import bench_diagnosis_excitations as bench
+    import third_generator_records as plants
+
+    rng = np.random.default_rng(1003)
+    plant = plants.make_plant(rng)
+    n = 16000
+    t = np.arange(n) / bench.SAMPLE_RATE_HZ
+    records = []
+    for kind in ("minor loops", "random_ramps"):
+        u = (0.5 + 0.2 * np.sin(2 * np.pi * 2.0 * t) + 0.1 * np.sin(2 * np.pi * 0.3 * t) if kind == "minor loops"
+             else bench.excitation(kind, rng, n))
+        v = u * plant.max_voltage_V
+        y = plant.hysteresis_um(v)
+        records.append((v, y + rng.normal(scale=bench.NOISE_SHARE * np.ptp(y), size=n), bench.SAMPLE_RATE_HZ))
+    d = diagnose(*records[0], validate=records[1])
+    assert d.cause == "none" and d.causes == (), d.why
+
+
 def test_an_effect_that_only_the_second_records_input_excites_is_named_when_it_takes_its_turn():
     """Truth (the independent generator's pair 2): creep, 5 % of the displacement over modes of
     18 ms to 0.8 s.  Its first record, a sine from rest, shows the creep 0.8 σ above the noise: named
