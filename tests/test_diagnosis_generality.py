@@ -263,6 +263,19 @@ def test_a_second_record_that_only_the_first_records_hysteresis_fails_is_not_dec
     assert _rate_independent_excess(fitter, slew.voltage_V, slew.displacement_um) > 100.0
 
 
+def _excitation_benchmark():
+    """``benchmarks/bench_diagnosis_excitations.py`` as a module (its records and helpers)."""
+    import sys
+    from pathlib import Path
+
+    benchmarks = str(Path(__file__).resolve().parents[1] / "benchmarks")
+    if benchmarks not in sys.path:
+        sys.path.insert(0, benchmarks)
+    import bench_diagnosis_excitations
+
+    return bench_diagnosis_excitations
+
+
 def test_a_second_record_that_only_measures_the_hysteresis_transfer_does_not_narrow_the_set():
     """Truth (the excitation benchmark's seed 21, records no generator of the tests plays): a plain
     MPI plant with a two-sample delay, 0.85 σ above the noise, seen through band-limited noise; the
@@ -272,13 +285,7 @@ def test_a_second_record_that_only_measures_the_hysteresis_transfer_does_not_nar
     creep's model happened to transfer best, so the second record's set, the same first cause
     without the delay, had replaced the cross-validated one.  Now the cross-validated set stands,
     and the model delivered still predicts a third input (a multisine) better than the plain fit."""
-    import sys
-    from pathlib import Path
-
-    benchmarks = str(Path(__file__).resolve().parents[1] / "benchmarks")
-    if benchmarks not in sys.path:
-        sys.path.insert(0, benchmarks)
-    import bench_diagnosis_excitations as bench
+    bench = _excitation_benchmark()
     from bench_common import settled_rms_pct
 
     rec = bench.make_records(21)
@@ -298,7 +305,6 @@ def test_a_second_record_that_only_measures_the_hysteresis_transfer_does_not_nar
     assert error["delivered"] < 0.9 * error["plain"], error
 
 
-
 @pytest.mark.xfail(reason="known false alarm: operators in states no other block shows (docs/diagnosis, "
                           "'Where the method still fails'); a fix tried cost detections elsewhere",
                    raises=AssertionError, strict=False)
@@ -309,27 +315,24 @@ def test_minor_loops_without_an_effect_name_nothing():
     held-out blocks the rate-independent models extrapolate where operators sit in states the other
     blocks never showed (median block 2.35 σ² for ten operators, 1.03 for the true thresholds), and
     creep's model extrapolates less.  Kept as the case a fix must pass."""
-    import sys
-    from pathlib import Path
-
-    benchmarks = str(Path(__file__).resolve().parents[1] / "benchmarks")
-    if benchmarks not in sys.path:
-        sys.path.insert(0, benchmarks)
-    import bench_diagnosis_excitations as bench
     import third_generator_records as plants
+
+    bench = _excitation_benchmark()
 
     rng = np.random.default_rng(1003)
     plant = plants.make_plant(rng)
     n = 16000
     t = np.arange(n) / bench.SAMPLE_RATE_HZ
-    records = []
-    for kind in ("minor loops", "random_ramps"):
-        u = (0.5 + 0.2 * np.sin(2 * np.pi * 2.0 * t) + 0.1 * np.sin(2 * np.pi * 0.3 * t) if kind == "minor loops"
-             else bench.excitation(kind, rng, n))
-        v = u * plant.max_voltage_V
+
+    def record(share_of_range):
+        v = share_of_range * plant.max_voltage_V
         y = plant.hysteresis_um(v)
-        records.append((v, y + rng.normal(scale=bench.NOISE_SHARE * np.ptp(y), size=n), bench.SAMPLE_RATE_HZ))
-    d = diagnose(*records[0], validate=records[1])
+        return v, y + rng.normal(scale=bench.NOISE_SHARE * np.ptp(y), size=n), bench.SAMPLE_RATE_HZ
+
+    # in this order: the ramps are drawn after the first record's noise
+    first = record(0.5 + 0.2 * np.sin(2 * np.pi * 2.0 * t) + 0.1 * np.sin(2 * np.pi * 0.3 * t))
+    second = record(bench.excitation("random_ramps", rng, n))
+    d = diagnose(*first, validate=second)
     assert d.cause == "none" and d.causes == (), d.why
 
 
