@@ -263,6 +263,19 @@ class CandidateFitter:
         gain = float(np.polyfit(self.v, self.y, 1)[0])
         self.gain_sign = 1.0 if gain >= 0 else -1.0
 
+    def operator_outputs_V(self):
+        """``(N, m)`` outputs of the richer rate-independent model's operators with a threshold
+        above 0 over the record (its estimated initial state, its thresholds; the operator at 0 is
+        the input itself), V; None without an identified model (a fixed hysteresis).  The finest
+        rate-independent description of the hysteresis' state: where a sample leaves the states
+        a fit saw, every rate-independent model extrapolates."""
+        if self.richer_result is None:
+            return None
+        family = self.base("richer")
+        A, columns = regressors(self.v, family.thresholds_V, self.operator, family.input_offset_V, cubic=False,
+                                initial_state=family.initial_state)
+        return A[:, [c for c in columns if c >= 0]]
+
     # ------------------------------------------------------------ families
     def base(self, which: str = "baseline") -> Family:
         """The rate-independent family (``"baseline"``: n operators, ``"richer"``: 2n)."""
