@@ -934,7 +934,7 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
     share = improvement / excess if excess > 0 else 1.0
     if excess >= UNEXPLAINED_LEVEL * s2 and share < UNEXPLAINED_SHARE:
         return {"cause": "unexplained", "causes": ("unexplained",), "significant": significant,
-                    "not_where_states_seen": vetoed, "best": best,
+                "not_where_states_seen": vetoed, "best": best,
                 "explained_share": share,
                 "text": f"the best candidate, {best}, removes only {100 * share:.0f} % of the mean-square "
                         f"error above the noise ({excess / s2:.3g} σ²): most of the residual is outside "
@@ -2560,12 +2560,14 @@ def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -
             text += f"; {', '.join(others)} explain it as well"
         return text + ("" if validation is None else validation["remark"])
     lost = verdict.get("not_where_states_seen") or (cv_verdict or {}).get("not_where_states_seen") or ()
-    lost_text = "; ".join(
-        f"{c} lowers the cross-validated error by {candidates[c].excess_over_noise:.3g} σ² against the better "
-        f"rate-independent model, but where every operator stays in states its training blocks showed it "
-        f"removes {candidates[c].removed_where_states_seen_sigma2:.3g} σ²" for c in lost) + (
-        ": the advantage lies where the rate-independent models extrapolate operator states no other block "
-        "showed (minor loops that peak in one block), not in an effect") if lost else ""
+    lost_text = ""
+    if lost:
+        lost_text = "; ".join(
+            f"{c} lowers the cross-validated error by {candidates[c].excess_over_noise:.3g} σ² against the "
+            f"better rate-independent model, but where every operator stays in states its training blocks "
+            f"showed it removes {candidates[c].removed_where_states_seen_sigma2:.3g} σ²" for c in lost)
+        lost_text += (": the advantage lies where the rate-independent models extrapolate operator states no "
+                      "other block showed (minor loops that peak in one block), not in an effect")
     if cause == "unexplained":
         return f"unexplained {by}: {verdict['text']}" + (f" ({lost_text})" if lost else "")
     best = min(candidates.values(), key=lambda ev: ev.mse_um2) if candidates else None
