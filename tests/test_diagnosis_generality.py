@@ -1160,8 +1160,8 @@ def test_folds_leave_out_samples_where_an_operator_leaves_the_states_training_sh
     np.testing.assert_array_equal(by_input[0][1], by_state[0][1])
 
 
-def test_the_median_score_can_leave_out_blocks_that_score_a_handful_of_samples():
-    from pysim.diagnosis.diagnose import MIN_SCORED_PER_BLOCK, _blocked_score
+def test_the_median_score_where_states_were_seen_leaves_out_blocks_that_score_a_handful_of_samples():
+    from pysim.diagnosis.diagnose import MIN_SCORED_PER_BLOCK, _blocked_score, _well_scored
 
     n = 1000
     y = np.zeros(4 * n)
@@ -1170,16 +1170,15 @@ def test_the_median_score_can_leave_out_blocks_that_score_a_handful_of_samples()
     blocks = np.array_split(rows, 4)
     few = blocks[3][:MIN_SCORED_PER_BLOCK - 1]
     folds = [(np.setdiff1d(rows, b), s) for b, s in zip(blocks, blocks[:3] + [few])]
-    per_block, score = _blocked_score(y, prediction, folds, MIN_SCORED_PER_BLOCK)
-    assert per_block == [1.0, 4.0, 9.0, 100.0]
-    assert score == pytest.approx(4.0)              # the median of 1, 4 and 9; the 99-sample block left out
-    assert _blocked_score(y, prediction, folds)[1] == pytest.approx(6.5)      # by default every block counts
+    assert _blocked_score(y, prediction, folds) == ([1.0, 4.0, 9.0, 100.0], pytest.approx(6.5))
+    kept = _well_scored(folds)
+    assert [s.size for _, s in kept] == [n, n, n]
+    assert _blocked_score(y, prediction, kept)[1] == pytest.approx(4.0)   # the median of 1, 4 and 9
     enough = blocks[3][:MIN_SCORED_PER_BLOCK]
-    assert _blocked_score(y, prediction, folds[:3] + [(folds[3][0], enough)], MIN_SCORED_PER_BLOCK)[1] \
-        == pytest.approx(6.5)
-    # with fewer than two blocks of that many samples, every block counts
-    sparse = [(t, s[:10]) for t, s in folds]
-    assert _blocked_score(y, prediction, sparse, MIN_SCORED_PER_BLOCK)[1] == pytest.approx(6.5)
+    assert len(_well_scored(folds[:3] + [(folds[3][0], enough)])) == 4
+    # fewer than two blocks of that many samples prove nothing: no score where states were seen
+    assert _well_scored([(t, s[:10]) for t, s in folds]) is None
+    assert _well_scored(folds[:1] + [(t, s[:10]) for t, s in folds[1:]]) is None
 
 
 def test_a_cause_whose_advantage_vanishes_where_the_operator_states_were_seen_is_not_named():

@@ -643,16 +643,19 @@ def _cross_validate(fitter: CandidateFitter, family: Family, fit: CandidateFit, 
     return out
 
 
-def _blocked_score(y, prediction, folds, min_scored: int = 1) -> tuple:
+def _blocked_score(y, prediction, folds) -> tuple:
     """``(per_block, score)``: the held-out mean-square error of every block (µm²) and their median,
     the score -- one block whose input the others never showed (a state they cannot predict) does
-    not decide alone.  Blocks that score fewer than ``min_scored`` samples are left out of the
-    median (over a handful of samples chance decides the error), unless fewer than two blocks
-    score that many."""
-    scored = [s for _, s in folds if s.size]
-    per_block = [float(np.mean((y[s] - prediction[s]) ** 2)) for s in scored]
-    counted = [e for e, s in zip(per_block, scored) if s.size >= min_scored]
-    return per_block, float(np.median(counted if len(counted) >= 2 else per_block))
+    not decide alone."""
+    per_block = [float(np.mean((y[s] - prediction[s]) ** 2)) for _, s in folds if s.size]
+    return per_block, float(np.median(per_block))
+
+
+def _well_scored(folds, min_scored: int = MIN_SCORED_PER_BLOCK):
+    """The folds whose held-out block scores at least ``min_scored`` samples, when two or more do
+    (over a handful of samples chance decides a block's error); None otherwise."""
+    kept = [(train, scored) for train, scored in folds if scored.size >= min_scored]
+    return kept if len(kept) >= 2 else None
 
 
 def _evaluate(fitter, family, fit, folds, character, y, mask) -> Evaluation:
@@ -1516,12 +1519,13 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     # peak where no other block does leave operators in such states, every rate-independent model
     # extrapolates there, and a slow candidate that draws the same trend could be named for it
     # (only where two blocks or more score MIN_SCORED_PER_BLOCK such samples: fewer prove nothing)
-    seen_folds = make_folds(v, settle=_settle_samples(v.size), operator_outputs_V=fitter.operator_outputs_V())
+    seen_folds = _well_scored(make_folds(v, settle=_settle_samples(v.size),
+                                         operator_outputs_V=fitter.operator_outputs_V()))
     removed_seen = None
-    if sum(s.size >= MIN_SCORED_PER_BLOCK for _, s in seen_folds) >= 2:
+    if seen_folds is not None:
 
         def where_seen(ev):
-            return _blocked_score(y, ev.cv_prediction_um, seen_folds, MIN_SCORED_PER_BLOCK)[1]
+            return _blocked_score(y, ev.cv_prediction_um, seen_folds)[1]
 
         reference_seen = min(where_seen(baseline), where_seen(richer))
         removed_seen = {c: reference_seen - where_seen(ev) for c, ev in candidates.items()}
