@@ -305,6 +305,26 @@ def test_a_second_record_that_only_measures_the_hysteresis_transfer_does_not_nar
     assert error["delivered"] < 0.9 * error["plain"], error
 
 
+def test_the_search_error_sum_ignores_columns_the_rows_never_move():
+    """A second implementation: least squares on the columns that move.  An operator above the
+    search rows' input leaves a column of rounding (1e-130) or of numbers whose squares underflow
+    (1e-170, its norm 0 in floating point); the normal equations of the scaled columns gave 364 for
+    a true 53.9 here (NaN on third-generator seed 2's resonance search, where a grid search then took
+    the NaN for its minimum)."""
+    from pysim.diagnosis.candidates import _lsq_sse
+
+    rng = np.random.default_rng(0)
+    n = 4000
+    u = 75 + 75 * np.sin(np.linspace(0, 20, n))
+    t = np.arange(n)
+    moving = np.column_stack([u**3, u, np.maximum(u - 30, 0), np.ones(n)])
+    A = np.column_stack([moving[:, :3], 1e-130 * np.exp(-t / 500), 1e-170 * np.exp(-t / 700), moving[:, 3]])
+    y = 0.001 * u**2 + rng.normal(0, 0.01, n)
+    theta = np.linalg.lstsq(moving, y, rcond=None)[0]
+    assert _lsq_sse(A, y) == pytest.approx(float(np.sum((y - moving @ theta) ** 2)), rel=1e-9)
+    assert _lsq_sse(np.zeros((n, 2)), y) == pytest.approx(float(y @ y))
+
+
 def test_minor_loops_without_an_effect_name_nothing():
     """Truth: a plain MPI plant of the third generator (``make_plant(default_rng(1003))``, at rest at
     0 V), no effect, 0.2 % noise; the input: loops of 0.4 of the range at 2 Hz whose centre wanders

@@ -97,6 +97,8 @@ MAX_RINGING_SHARE = 0.05
 #: Largest share of a settled displacement that displacement creep may reach by creeping: creep
 #: follows the jump of a step, it is not most of it (a response that mostly arrives late is a lag).
 MAX_CREEP_SHARE = 0.5
+#: A search column whose norm is below this share of the largest column's carries nothing.
+NEGLIGIBLE_COLUMN = 1e-12
 
 
 @dataclass
@@ -174,13 +176,17 @@ def _lsq_sse(A, y) -> float:
     """Error sum of the unconstrained least-squares fit of y by A (normal
     equations of the norm-scaled columns: cheap in a search loop)."""
     scale = np.sqrt(np.einsum("ij,ij->j", A, A))
-    scale[scale == 0] = 1.0
-    As = A / scale
+    # a column these rows never move (an operator above their input: zero, or 1e-130 of rounding) adds
+    # nothing; kept, its normal equations solved to NaN and a grid search took the NaN for its minimum
+    kept = scale > NEGLIGIBLE_COLUMN * scale.max(initial=0.0)
+    As = A[:, kept] / scale[kept]
     gram, rhs = As.T @ As, As.T @ y
     try:
         theta = np.linalg.solve(gram, rhs)
     except np.linalg.LinAlgError:
-        theta = np.linalg.lstsq(gram, rhs, rcond=None)[0]
+        theta = None
+    if theta is None or not np.all(np.isfinite(theta)):
+        theta = np.linalg.lstsq(As, y, rcond=None)[0]
     residual = y - As @ theta
     return float(residual @ residual)
 
