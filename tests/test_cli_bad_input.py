@@ -64,6 +64,66 @@ def test_diagnose_missing_file(tmp_path, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
+# ------------------------------------------------- output paths, all commands
+@pytest.mark.parametrize("command, options", [
+    ("diagnose", ["--report", "{tmp}/report"]),
+    ("identify", []),
+    ("excite", []),
+], ids=["diagnose", "identify", "excite"])
+@pytest.mark.parametrize("where, fragment", [
+    ("folder", "is a folder; give a file name"),
+    ("missing", "does not exist"),
+], ids=["a-folder", "no-folder"])
+def test_an_output_path_that_cannot_be_written_is_refused_before_any_work(tmp_path, capsys, command, options,
+                                                                          where, fragment):
+    # the output named as an existing folder used to end in a traceback after the fit, with the
+    # report already written beside it
+    out = tmp_path / "existing" if where == "folder" else tmp_path / "no" / "spec.py"
+    if where == "folder":
+        out.mkdir()
+    before = snapshot(tmp_path)
+    arguments = [command] + ([str(GOOD)] if command != "excite" else [])
+    code = pysim_main(arguments + ["--out", str(out)] + [o.format(tmp=tmp_path) for o in options])
+    assert code == 2
+    message = one_error_line(capsys, f"pysim {command}: error: ")
+    assert str(out) in message and fragment in message, message
+    assert snapshot(tmp_path) == before
+
+
+def test_diagnose_refuses_a_record_with_a_pause_before_any_work(tmp_path, capsys):
+    """A record joined across a 1 s pause (or given as the second record): every lag, delay and creep
+    would be fitted across the jump in time, so the diagnosis refuses it, naming where."""
+    rows = GOOD.read_text().splitlines()
+    header, body = rows[0], rows[1:]
+    cut = len(body) // 2
+    paused = tmp_path / "paused.csv"
+    lines = [header] + body[:cut]
+    for row in body[cut:]:
+        t, rest = row.split(",", 1)
+        lines.append(f"{float(t) + 1.0!r},{rest}")
+    paused.write_text("\n".join(lines) + "\n")
+    t_before = float(body[cut - 1].split(",")[0])
+    before = snapshot(tmp_path)
+    for arguments in ([str(paused)], [str(GOOD), "--validate", str(paused)]):
+        code = pysim_main(["diagnose", *arguments, "--out", str(tmp_path / "x.py"), "--report",
+                           str(tmp_path / "report")])
+        assert code == 2
+        message = one_error_line(capsys, "pysim diagnose: error: ")
+        assert f"{paused}: the samples are not evenly spaced" in message, message
+        assert f"after t = {t_before:.6g} s" in message, message
+    assert snapshot(tmp_path) == before
+
+
+def test_a_report_path_that_is_a_file_or_has_no_folder_is_refused(tmp_path, capsys):
+    plain = tmp_path / "report.txt"
+    plain.write_text("keep\n")
+    before = snapshot(tmp_path)
+    for report, fragment in ((plain, "exists and is not a folder"), (tmp_path / "no" / "report", "does not exist")):
+        assert pysim_main(["diagnose", str(GOOD), "--report", str(report)]) == 2
+        assert fragment in one_error_line(capsys, "pysim diagnose: error: ")
+    assert snapshot(tmp_path) == before
+
+
 # ------------------------------------------ data-layout options of both commands
 @pytest.mark.parametrize("command", ["identify", "diagnose"])
 @pytest.mark.parametrize("options, fragments", [

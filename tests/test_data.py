@@ -21,6 +21,7 @@ from pysim.identification.data import (
     MeasuredData,
     estimate_sample_rate,
     load_measured,
+    require_even_sampling,
     require_samples,
     save_measured,
     shipped_dataset,
@@ -344,6 +345,24 @@ def test_estimate_sample_rate():
     gap = np.concatenate([np.arange(100) * 0.01, 5.0 + np.arange(100) * 0.01])
     assert estimate_sample_rate(gap) == pytest.approx(100.0, rel=1e-12)
     assert math.isnan(estimate_sample_rate([1.0]))
+
+
+def test_require_even_sampling_passes_jitter_and_refuses_a_missing_sample_or_a_pause():
+    rng = np.random.default_rng(3)
+    n = 2000
+    even = np.arange(n) * 1e-3
+    jittered = even + rng.uniform(-2e-4, 2e-4, n)          # ±20 % of an interval, still increasing
+    signal = np.sin(2 * np.pi * even)
+    require_even_sampling(MeasuredData(jittered, signal, signal, source="rig.csv"), "the diagnosis")
+    for times, interval, after in ((np.delete(even, 700), 2e-3, 0.699),            # one sample missing
+                                   (np.r_[even[:500], even[500:] + 1.0], 1.001, 0.499)):  # a 1 s pause
+        with pytest.raises(DataError) as raised:
+            require_even_sampling(MeasuredData(times, signal[:times.size], signal[:times.size], source="rig.csv"),
+                                  "the diagnosis")
+        message = str(raised.value)
+        assert message.startswith("rig.csv: the samples are not evenly spaced")
+        assert f"an interval of {interval:.6g} s after t = {after:.6g} s" in message, message
+        assert "the diagnosis needs evenly spaced samples" in message
 
 
 def test_require_samples():

@@ -43,7 +43,7 @@ from pysim.identification.errors import DataError, IdentificationError
 
 __all__ = [
     "COLUMNS", "MeasuredData", "load_measured", "load_reference", "save_measured", "require_samples",
-    "estimate_sample_rate", "shipped_dataset", "SHIPPED_DATASETS",
+    "estimate_sample_rate", "require_even_sampling", "EVEN_SAMPLING_SPREAD", "shipped_dataset", "SHIPPED_DATASETS",
 ]
 
 #: The standard column names, in the order :func:`save_measured` writes them.
@@ -163,6 +163,54 @@ def require_samples(data: MeasuredData, n_needed: int, what: str) -> None:
     """
     if len(data) < n_needed:
         raise DataError(f"{data.source or 'data'}: {len(data)} samples, need at least {n_needed} for {what}")
+
+
+#: Largest deviation of one sampling interval from the median, as a share of it, that a record whose
+#: dynamics are fitted tolerates: logger timestamps jitter, but a missing sample (2x) or a pause is a jump
+#: in time that every lag, delay and creep would be fitted across.
+EVEN_SAMPLING_SPREAD = 0.5
+
+
+def require_even_sampling(data: MeasuredData, what: str) -> None:
+    """Raise :class:`DataError` when the samples of ``data`` are not evenly spaced in time.
+
+    Every interval must lie within ``EVEN_SAMPLING_SPREAD`` of the median
+    interval; timestamp jitter passes, a missing sample or a pause does not.
+
+    Parameters
+    ----------
+    data : MeasuredData
+    what : str
+        What needs them evenly spaced, completing "... ; <what> needs evenly
+        spaced samples", e.g. ``"the diagnosis"``.
+
+    Raises
+    ------
+    DataError
+        ``"<file>: the samples are not evenly spaced: an interval of X s after
+        t = T s against a median of M s; ..."``.
+
+    Examples
+    --------
+    >>> t = np.r_[np.arange(100), np.arange(150, 250)] * 1e-3
+    >>> data = MeasuredData(t, np.sin(t), np.sin(t), "rig.csv")
+    >>> try:
+    ...     require_even_sampling(data, "the diagnosis")
+    ... except DataError as exc:
+    ...     print(str(exc)[:84])
+    rig.csv: the samples are not evenly spaced: an interval of 0.051 s after t = 0.099 s
+    """
+    t = np.asarray(data.time_s, dtype=np.float64)
+    if t.size < 3:
+        return
+    steps = np.diff(t)
+    median = float(np.median(steps))
+    deviation = np.abs(steps - median)
+    worst = int(np.argmax(deviation))
+    if deviation[worst] > EVEN_SAMPLING_SPREAD * median:
+        raise DataError(f"{data.source or 'data'}: the samples are not evenly spaced: an interval of "
+                        f"{steps[worst]:.6g} s after t = {t[worst]:.6g} s against a median of {median:.6g} s; "
+                        f"{what} needs evenly spaced samples (resample the record, or split it at the gap)")
 
 
 def save_measured(data: MeasuredData, path) -> Path:

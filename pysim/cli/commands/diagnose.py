@@ -8,6 +8,7 @@ from pathlib import Path
 
 from pysim.cli.commands.identify import add_data_options, load_data
 from pysim.cli.errors import UserError
+from pysim.cli.outputs import check_output_file, check_output_folder
 
 
 def register(subparsers) -> None:
@@ -43,15 +44,10 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def _check_output(path: str, what: str) -> None:
-    folder = Path(path).parent
-    if not folder.is_dir():
-        raise UserError(f"{path}: folder {folder} for the {what} does not exist")
-
-
 def run(args) -> int:
     from pysim.core.spec import model_name_from_path, write_spec
     from pysim.diagnosis.diagnose import diagnose
+    from pysim.identification.data import require_even_sampling
 
     if args.operators < 1:
         raise UserError(f"--operators must be at least 1, got {args.operators}")
@@ -63,14 +59,15 @@ def run(args) -> int:
     if not name.isidentifier():
         raise UserError(f"model name {name!r} is not a C identifier (use --name)")
     if args.out:
-        _check_output(args.out, "spec")
+        check_output_file(args.out, "spec")
     if args.report:
-        report = Path(args.report)
-        if report.exists() and not report.is_dir():
-            raise UserError(f"{args.report}: exists and is not a folder")
-        _check_output(str(report.resolve()), "report")
+        check_output_folder(args.report, "report")
     data = load_data(args)
     other = load_data(args, args.validate) if args.validate else None
+    for record in (data, other):
+        if record is not None:
+            # every lag, delay and creep is fitted on the sample grid: a pause would be fitted across
+            require_even_sampling(record, "the diagnosis")
     warmup = "auto" if args.warmup == "auto" else int(args.warmup)
     result = diagnose(data.voltage_V, data.displacement_um, data.sample_rate_hz, time_s=data.time_s,
                       n_operators=args.operators, model=args.model, operator=args.operator,

@@ -10,10 +10,10 @@ record the displacement, and diagnose that record.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 from pysim.cli.commands.identify import add_data_options, load_data
 from pysim.cli.errors import UserError
+from pysim.cli.outputs import check_output_file
 
 
 def register(subparsers) -> None:
@@ -41,9 +41,7 @@ def run(args) -> int:
     from pysim.diagnosis.diagnose import diagnose
     from pysim.diagnosis.excitation import separating_excitation
 
-    out = Path(args.out)
-    if not out.parent.is_dir():
-        raise UserError(f"{args.out}: folder {out.parent} does not exist")
+    out = check_output_file(args.out, "voltage record")
     causes = None
     if args.causes:
         causes = [c.strip() for c in args.causes.split(",") if c.strip()]

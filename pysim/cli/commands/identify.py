@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from pysim.cli.errors import UserError
+from pysim.cli.outputs import check_output_file
 
 
 def add_data_options(parser) -> None:
@@ -80,9 +81,7 @@ def run(args) -> int:
     if not name.isidentifier():
         raise UserError(f"model name {name!r} is not a C identifier (use --name)")
     if args.out:
-        out_dir = Path(args.out).parent
-        if not out_dir.is_dir():
-            raise UserError(f"{args.out}: folder {out_dir} does not exist")
+        check_output_file(args.out, "spec")
     data = load_data(args)
     warmup = "auto" if args.warmup == "auto" else int(args.warmup)
 
