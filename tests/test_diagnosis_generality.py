@@ -7,6 +7,7 @@ Records are made here from an MPI plant and effects written out in the test
 fitted models.
 """
 import math
+import re
 
 import numpy as np
 import pytest
@@ -186,6 +187,15 @@ def test_a_quiet_second_record_that_the_cause_makes_worse_overrules_it(plant):
     d = diagnose(v1, y1, FS, validate=(v2, y2, FS))
     assert "rate_dependence" in d.cross_validation_causes, d.why
     assert d.cause == "none" and d.causes == (), d.why
+    assert d.validation["verdict_by"] == "second record", d.why
+    # the text gives the second record's figures, and they agree with naming nothing there (it
+    # used to quote the first record's 165 σ² removed "(needs 0.25)" beside the verdict none)
+    found = re.search(r"the best there, (\w+), removes (-?[\d.e+-]+) σ² \(needs ([\d.]+)\) and "
+                      r"(-?[\d.]+) % of the RMS error \(needs ([\d.]+)\)", d.why)
+    assert found, d.why
+    removed, needed, gain, gain_needed = map(float, found.group(2, 3, 4, 5))
+    assert removed < needed or gain < gain_needed, d.why
+    assert "rate_dependence removed" in d.why and "does not confirm" in d.why
 
 
 def test_creep_of_the_displacement_is_named_and_predicts_a_new_input(plant):

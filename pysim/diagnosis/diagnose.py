@@ -2579,6 +2579,24 @@ def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -
         return "no candidate could be fitted"
     if lost:
         return lost_text + f", so nothing is named; σ = {noise:.3g} µm"
+    if validation is not None and baseline.validation is not None and richer.validation is not None:
+        # named by the second record: its own figures (the first record's would contradict the verdict)
+        scored = [ev for ev in candidates.values() if ev.validation is not None]
+        if scored:
+            best2 = min(scored, key=lambda ev: ev.validation["mse_um2"])
+            ref2 = min(baseline.validation["mse_um2"], richer.validation["mse_um2"])
+            noise2 = validation["noise_um"]
+            gain2 = 100.0 * (1.0 - math.sqrt(best2.validation["mse_um2"] / ref2)) if ref2 > 0 else 0.0
+            first = ""
+            if cv_verdict is not None and cv_verdict.get("cause") in EFFECTS:
+                named = candidates[cv_verdict["cause"]]
+                first = (f"; on the record fitted, {named.cause} removed {named.excess_over_noise:.3g} σ² out of "
+                         "sample, which the second record does not confirm")
+            return (f"no candidate lowers the error on the second record significantly against both the "
+                    f"baseline and the richer rate-independent model: the best there, {best2.cause}, removes "
+                    f"{(ref2 - best2.validation['mse_um2']) / noise2**2:.3g} σ² (needs {NOISE_FRACTION}) and "
+                    f"{gain2:.1f} % of the RMS error (needs {MIN_GAIN_PCT}){first}; σ = {noise2:.3g} µm "
+                    "there" + validation["remark"])
     return (f"no candidate lowers the error {by} significantly against both the baseline and the richer "
             f"rate-independent model: the best, {best.cause}, removes {best.excess_over_noise:.3g} σ² "
             f"(needs {NOISE_FRACTION}) and {best.gain_vs_richer_pct:.1f} % of the RMS error (needs "
