@@ -118,6 +118,31 @@ def test_bad_files_exit_2_with_one_line_and_write_nothing(tmp_path, bad):
     assert os.listdir(tmp_path) == []
 
 
+def test_a_displacement_that_does_not_follow_the_voltage_is_refused_and_nothing_written(tmp_path, capsys):
+    """A displacement column of sensor noise (a wrong column, a sensor that was off): the fitted model
+    would explain none of it, and its inverse would be a compensator of absurd gain; refused, naming the
+    share explained. The same voltage with a displacement that follows it is fitted."""
+    t = np.arange(4000) / 1000.0
+    v = 75.0 + 70.0 * np.sin(2 * np.pi * t)
+    noise = 20.0 + np.random.default_rng(4).standard_normal(t.size)
+    for name, y, refused in (("noise.csv", noise, True), ("follows.csv", 0.1 * v + 0.01 * noise, False)):
+        record = tmp_path / name
+        record.write_text("time_s,voltage_V,displacement_um\n" + "".join(
+            f"{a:.17g},{b:.17g},{c:.17g}\n" for a, b, c in zip(t, v, y)))
+        spec = tmp_path / "model.py"
+        code = main(["identify", str(record), "--out", str(spec)])
+        err = capsys.readouterr().err.strip()
+        if refused:
+            assert code == 2 and len(err.splitlines()) == 1, err
+            assert f"{record}: the displacement does not follow the voltage" in err
+            explained = float(err.split("model explains ")[1].split(" %")[0])
+            assert explained < 5.0, err                 # noise: next to nothing
+            assert not spec.exists()
+        else:
+            assert code == 0 and spec.exists(), err
+            spec.unlink()
+
+
 def test_missing_file_and_bad_options(tmp_path, capsys):
     assert main(["identify", str(tmp_path / "nope.csv")]) == 2
     assert "nope.csv" in capsys.readouterr().err

@@ -102,6 +102,7 @@ def run(args) -> int:
         transient = settling_samples(data.displacement_um - chosen.prediction_um)
         if transient:
             chosen = fit(args.model, transient)
+    _require_that_the_displacement_follows(chosen, data)
     other = "cpi" if args.model == "mpi" else "mpi"
     results = {args.model: chosen, other: fit(other, transient)}
     results = {kind: results[kind] for kind in ("mpi", "cpi")}
@@ -132,6 +133,30 @@ def run(args) -> int:
     else:
         print(format_table(chosen, results, data.source, args.out, transient))
     return 0
+
+
+#: Least share of the displacement's variance (over the samples fitted) that the identified model must
+#: explain: a piezo actuator's hysteresis explains well over 90 %; a model that explains less than this
+#: share describes a displacement that does not follow the voltage (a wrong column, a sensor that was
+#: off), and its inverse would be a compensator of absurd gain.
+MIN_EXPLAINED_SHARE = 0.5
+
+
+def _require_that_the_displacement_follows(chosen, data) -> None:
+    """A :class:`UserError` when the model ``chosen`` explains less than ``MIN_EXPLAINED_SHARE`` of the
+    displacement's variance over the samples it was fitted on."""
+    import numpy as np
+
+    rows = chosen.fit_slice
+    y = np.asarray(data.displacement_um, dtype=float)[rows]
+    residual = y - np.asarray(chosen.prediction_um, dtype=float)[rows]
+    spread = float(np.sum((y - y.mean()) ** 2))
+    explained = 1.0 - float(residual @ residual) / spread if spread > 0 else 0.0
+    if explained < MIN_EXPLAINED_SHARE:
+        raise UserError(f"{data.source}: the displacement does not follow the voltage: the fitted "
+                        f"{chosen.model.kind.upper()} model explains {100 * max(explained, 0.0):.1f} % of its "
+                        f"variance (RMS error {chosen.errors['rms_error_pct']:.3g} % of its range); check the "
+                        "columns (--voltage-column, --displacement-column) and the sensor")
 
 
 def format_table(chosen, results, source, out, transient: int = 0) -> str:
