@@ -35,8 +35,8 @@ def check_output_file(path, what: str) -> Path:
 
 
 def check_output_folder(path, what: str) -> Path:
-    """The folder ``path`` a command will write ``what`` into (made if missing), or a
-    :class:`UserError`: it exists and is not a folder, or its parent folder does not exist.
+    """The folder ``path`` a command will write ``what`` into (the command makes it when it is missing),
+    or a :class:`UserError`: it exists and is not a folder, or its parent folder does not exist.
 
     Examples
     --------

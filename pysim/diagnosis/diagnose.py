@@ -902,7 +902,7 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
     significant = {}
     for cause, value in mse.items():
         removed = ref - value
-        gain = 100.0 * (1.0 - math.sqrt(value / ref)) if ref > 0 else 0.0
+        gain = _rms_gain_pct(value, ref)
         near_noise = bool(consistent and consistent.get(cause) and removed >= NEAR_NOISE_FRACTION * s2
                           and removed >= 0.5 * excess)
         significant[cause] = bool((removed >= NOISE_FRACTION * s2 and gain >= MIN_GAIN_PCT) or near_noise)
@@ -946,6 +946,12 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
     causes = tuple([winner] + [c for c in ties if c != winner])
     return {"cause": winner, "causes": causes, "significant": significant, "best": best,
             "explained_share": share, "text": "", "not_where_states_seen": vetoed}
+
+
+def _rms_gain_pct(mse_um2: float, reference_mse_um2: float) -> float:
+    """How much lower (%) the RMS error of a model with mean-square error ``mse_um2`` is than the
+    reference's: the gain :func:`decide` requires to reach ``MIN_GAIN_PCT``, and the text quotes."""
+    return 100.0 * (1.0 - math.sqrt(mse_um2 / reference_mse_um2)) if reference_mse_um2 > 0 else 0.0
 
 
 def _simplest_unless_outranked(ties, best, complexity: dict, error: dict, outranks=None) -> str:
@@ -2586,7 +2592,7 @@ def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -
             best2 = min(scored, key=lambda ev: ev.validation["mse_um2"])
             ref2 = min(baseline.validation["mse_um2"], richer.validation["mse_um2"])
             noise2 = validation["noise_um"]
-            gain2 = 100.0 * (1.0 - math.sqrt(best2.validation["mse_um2"] / ref2)) if ref2 > 0 else 0.0
+            gain2 = _rms_gain_pct(best2.validation["mse_um2"], ref2)
             first = ""
             if cv_verdict is not None and cv_verdict.get("cause") in EFFECTS:
                 named = candidates[cv_verdict["cause"]]
