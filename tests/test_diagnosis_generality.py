@@ -333,6 +333,36 @@ def test_the_search_error_sum_ignores_columns_the_rows_never_move():
     theta = np.linalg.lstsq(moving, y, rcond=None)[0]
     assert _lsq_sse(A, y) == pytest.approx(float(np.sum((y - moving @ theta) ** 2)), rel=1e-9)
     assert _lsq_sse(np.zeros((n, 2)), y) == pytest.approx(float(y @ y))
+    # the same columns with the voltage in mV: the cubic column is 10⁹ times larger, the offset column
+    # is not, and it still moves the fit (measured against the largest column it was dropped)
+    in_mV = np.column_stack([(1e3 * u) ** 3, 1e3 * u, np.maximum(1e3 * u - 3e4, 0), np.ones(n)])
+    assert _lsq_sse(in_mV, y) == pytest.approx(float(np.sum((y - moving @ theta) ** 2)), rel=1e-6)
+
+
+def test_the_diagnosis_does_not_depend_on_the_units():
+    """Truth (the independent generator's pair 1): a 28.6 Hz resonance (ζ 0.49) after the
+    hysteresis.  The same records with the voltage in mV and the displacement in nm behind a sensor
+    zero of 250 µm must name the same causes and predict as well in % of the range: every threshold
+    of the method is relative.  Before, the searches' error sums measured a column against the
+    largest one, the cubic column (mV³), so the offset column was dropped: the resonance, the input
+    low-pass and the slew limit fitted 8-10 times worse than in V and a delay was named alone."""
+    import independent_records
+
+    pair = independent_records.make_pair(1)
+    assert pair.truth.effect == "rate_dependence"
+    train, other = pair.train, pair.validation
+
+    def in_units(record, volts, microns, zero_um):
+        return (volts * record.voltage_V, microns * (record.displacement_um + zero_um), record.sample_rate_hz)
+
+    in_V = diagnose(*in_units(train, 1.0, 1.0, 0.0), validate=in_units(other, 1.0, 1.0, 0.0))
+    in_mV_nm = diagnose(*in_units(train, 1e3, 1e3, 250.0), validate=in_units(other, 1e3, 1e3, 250.0))
+    assert in_V.cause == "rate_dependence", in_V.why
+    assert (in_mV_nm.cause, in_mV_nm.causes) == (in_V.cause, in_V.causes), in_mV_nm.why
+    for name in ("baseline", "richer", *in_V.candidates):
+        ours = in_V.candidates.get(name) or getattr(in_V, name)
+        theirs = in_mV_nm.candidates.get(name) or getattr(in_mV_nm, name)
+        assert theirs.rms_pct == pytest.approx(ours.rms_pct, rel=0.02), name
 
 
 def test_minor_loops_without_an_effect_name_nothing():

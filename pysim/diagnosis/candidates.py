@@ -97,8 +97,8 @@ MAX_RINGING_SHARE = 0.05
 #: Largest share of a settled displacement that displacement creep may reach by creeping: creep
 #: follows the jump of a step, it is not most of it (a response that mostly arrives late is a lag).
 MAX_CREEP_SHARE = 0.5
-#: A search column whose norm is below this share of the largest column's carries nothing.
-NEGLIGIBLE_COLUMN = 1e-12
+#: A search column whose norm is below this share of a typical column's (the median) carries nothing.
+NEGLIGIBLE_COLUMN = 1e-9
 
 
 @dataclass
@@ -177,8 +177,13 @@ def _lsq_sse(A, y) -> float:
     equations of the norm-scaled columns: cheap in a search loop)."""
     scale = np.sqrt(np.einsum("ij,ij->j", A, A))
     # a column these rows never move (an operator above their input: zero, or 1e-130 of rounding) adds
-    # nothing; kept, its normal equations solved to NaN and a grid search took the NaN for its minimum
-    kept = scale > NEGLIGIBLE_COLUMN * scale.max(initial=0.0)
+    # nothing; kept, its normal equations solved to NaN and a grid search took the NaN for its minimum.
+    # Measured against a typical column (the median norm: most columns are operators), not the largest:
+    # the cubic column grows with the cube of the voltage's unit, and in mV it made the offset column
+    # look negligible (independent seed 1: a resonance was named a delay)
+    positive = scale[scale > 0]
+    typical = float(np.median(positive)) if positive.size else 0.0
+    kept = scale > NEGLIGIBLE_COLUMN * typical
     As = A[:, kept] / scale[kept]
     gram, rhs = As.T @ As, As.T @ y
     try:
