@@ -1310,21 +1310,48 @@ def test_discrete_backlash_extension_predicts_the_other_branch_at_least_as_well(
 
 
 def test_a_record_that_only_rises_is_not_refused_and_says_why(plant):
-    """Upward steps only: no operator can be identified. identify refuses with the reason; diagnose
-    fits the polynomial part, names nothing and says why (with a second record that can identify
-    the hysteresis, the roles swap: nothing to name there either)."""
+    """Upward steps only: no operator's hysteresis can be identified. identify refuses with the
+    reason; without require_excitation it fits the record's own curve (every operator reported as
+    not identifiable), so the six levels are met to the noise; diagnose names nothing and says why
+    (with a second record that can identify the hysteresis, the roles swap: nothing to name there
+    either)."""
     from pysim.identification.identify import IdentificationError, identify
 
     v = np.repeat(np.linspace(0.0, plant.voltage_range_V[1], 6), 700)
-    y = noisy(plant.simulate(v), 10)
+    clean = plant.simulate(v)
+    y = noisy(clean, 10)
     with pytest.raises(IdentificationError, match="only rises"):
         identify(v, y)
     fit = identify(v, y, require_excitation=False)
-    assert not np.any(fit.model.weights) and "only rises" in fit.unidentified_reason
+    assert "only rises" in fit.unidentified_reason
     assert len(fit.not_identifiable_operators) == fit.model.n_operators - 1
+    noise = 0.002 * np.ptp(clean)
+    assert np.sqrt(np.mean((fit.prediction_um - clean) ** 2)) < 0.2 * noise
     w = multisine(plant, 5000, 11)
     d = diagnose(v, y, FS, validate=(w, noisy(plant.simulate(w), 12), FS))
     assert d.cause == "none" and d.causes == ()
+    assert "cannot identify the hysteresis" in d.why
+
+
+@pytest.mark.parametrize("input_kind, creeping, expected", [
+    ("ramp", False, "none"), ("staircase", False, "none"), ("staircase", True, "creep")])
+def test_a_one_way_record_names_only_what_its_holds_show(plant, input_kind, creeping, expected):
+    """A record whose input only rises cannot identify the hysteresis, but its curve is a function
+    of the input: the rate-independent reference must take it whole, or the curve's shape is blamed
+    on an effect.  Truths: no effect on a ramp and on a staircase of seven holds (before, with
+    a1 u³ + a2 u + offset as the reference, named creep, 32 σ² removed, and an input low-pass); a
+    creep of 5 % of the displacement with a 0.2 s time constant, written out here, on the staircase,
+    where it moves the displacement while the input holds (before: named nothing)."""
+    import scipy.signal
+
+    top = plant.voltage_range_V[1]
+    v = np.linspace(0.0, top, 6000) if input_kind == "ramp" else np.repeat(np.linspace(0.0, top, 7), 1000)
+    h = plant.simulate(v)
+    if creeping:
+        pole = math.exp(-T / 0.2)
+        h = h + 0.05 * scipy.signal.lfilter([1 - pole], [1, -pole], h - h[0])
+    d = diagnose(v, noisy(h, 31), FS)
+    assert d.cause == expected, d.why
     assert "cannot identify the hysteresis" in d.why
 
 

@@ -300,6 +300,32 @@ def test_one_sided_and_classical_play_fits_are_the_same_model_class():
     np.testing.assert_allclose(play.prediction_um[fit], osp.prediction_um[fit], atol=1e-9)
 
 
+@pytest.mark.parametrize("direction", ["rises", "falls"])
+def test_a_one_way_record_is_fitted_as_its_own_curve_and_says_why(direction):
+    """An input that only rises (from rest) or only falls (after a rise to the top) cannot identify
+    the loops, but the MPI model's curve along it is in the model class: the operators are ramps.
+    Without require_excitation the fit is that curve, to rounding, with every operator reported
+    as not identifiable; a cubic polynomial, the reference before, leaves 0.2-0.7 % of the range."""
+    truth = paper_model()
+    top = truth.voltage_range_V[1]
+    rise = np.linspace(0.0, top, 3000)
+    if direction == "rises":
+        v, y = rise, truth.simulate(rise)
+    else:
+        v = rise[::-1]
+        y = truth.simulate(np.r_[rise, v])[rise.size:]
+    with pytest.raises(IdentificationError, match=f"only {direction}"):
+        identify(v, y)
+    fit = identify(v, y, require_excitation=False)
+    assert f"only {direction}" in fit.unidentified_reason
+    assert fit.not_identifiable_operators == tuple(i for i, r in enumerate(fit.model.thresholds_V) if r > 0)
+    span = float(np.ptp(y))
+    assert np.sqrt(np.mean((fit.prediction_um - y) ** 2)) < 1e-8 * span
+    cubic = np.column_stack([v**3, v, np.ones_like(v)])
+    left = y - cubic @ np.linalg.lstsq(cubic, y, rcond=None)[0]
+    assert np.sqrt(np.mean(left**2)) > 1e-3 * span
+
+
 def test_a_record_between_two_levels_is_fitted_as_a_line_and_says_why():
     """Steps between two voltages show no loop and no curvature: u³ is then a combination of u and
     the offset, every operator of a straight line.  Without require_excitation the fit is the line

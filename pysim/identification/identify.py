@@ -702,8 +702,11 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         Input shift (default: the bottom of the fitted samples' range).
     require_excitation : bool
         Refuse a record that cannot identify any operator (default).  With
-        False such a record is fitted by ``a1 u³ + a2 u + offset`` and every
-        operator is reported as not identifiable (``unidentified_reason``).
+        False such a record is fitted as the curve it shows (the operators'
+        columns with their estimated states, dependent ones tied; on an
+        input that only rises they are ramps) and every operator is
+        reported as not identifiable (``unidentified_reason``): the weights
+        describe this record's curve, not the loops of another input.
     name, description : str
         Stored in the model.
 
@@ -809,9 +812,15 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         if require_excitation:
             raise IdentificationError(message)
         unexcited_message = unexcited_message or message
-    if unexcited_message is not None:
-        # no operator can be identified: all are reported, with weight 0 (the model is a1 u³ + a2 u + offset)
-        anchor = np.full(r.size, -1)
+    static_curve = unexcited_message is not None
+    if static_curve:
+        # no operator's hysteresis can be identified: all are reported as such, but each keeps its column
+        # (dependent ones are tied below), so the fit is the record's own curve, as a rate-independent
+        # reference must be: on an input that only rises the operators are ramps whose knots the
+        # estimated states place.  a1 u³ + a2 u + offset alone left the loading curve's shape, which a
+        # diagnosis then blamed on creep (a time function is an input function on a ramp)
+        anchor = np.where(r > 0, np.arange(r.size), -1)
+        factor = np.ones(r.size)
     n_lin = 2 if cubic else 1
 
     def layout():
@@ -859,6 +868,10 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         diagonal = np.abs(np.diag(R_probe))
         rank = int(np.count_nonzero(diagonal > RANK_TOLERANCE * diagonal[0]))
         dependent_ops = [i for i in own if column_of[i] in set(pivots[rank:].tolist())]
+        if rank < n_hyst and not dependent_ops and static_curve and own:
+            # the pivoting named another column (the offset, against an operator the input never
+            # reaches): the widest operator goes first
+            dependent_ops = [max(own, key=lambda j: r[j])]
         if rank < n_hyst and not dependent_ops and cubic:
             # u³ is a combination of u and the offset: the samples take two input levels (steps
             # between two voltages), which show no loop curvature; the model is fitted without it
@@ -1109,6 +1122,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     extra_coefficients = {key: float(theta[n_hyst + j]) for j, key in enumerate(extras)}
     prediction = A @ theta
     merged = {int(i): int(anchor[i]) for i in not_identifiable if anchor[i] >= 0}
+    if static_curve:
+        not_identifiable = tuple(int(i) for i in range(r.size) if r[i] > 0)
     return IdentificationResult(
         model=identified, warmup_samples=start, prediction_um=prediction,
         fit_slice=rows if isinstance(rows, slice) else slice(first, stop),
