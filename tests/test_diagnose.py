@@ -21,7 +21,8 @@ import pytest
 from pysim.core.extended import ExtendedModel
 from pysim.core.spec import load_spec
 from pysim.diagnosis.candidates import EFFECTS as CATALOGUE
-from pysim.diagnosis.diagnose import CAUSES, diagnose, input_period, split_record
+from pysim.diagnosis.diagnose import diagnose
+from pysim.diagnosis.folds import input_period, split_record
 from pysim.diagnosis.residuals import (
     cross_correlation,
     dominant_frequency,
@@ -29,6 +30,7 @@ from pysim.diagnosis.residuals import (
     noise_sigma,
     time_since_change,
 )
+from pysim.diagnosis.rules import CAUSES
 from pysim.identification.data import MeasuredData, save_measured, shipped_dataset
 from pysim.testing.synthetic import EFFECTS, make_case
 

@@ -13,7 +13,9 @@ import numpy as np
 import pytest
 
 from pysim.diagnosis.candidates import MAX_CREEP_SHARE, CandidateFitter
-from pysim.diagnosis.diagnose import decide, diagnose, make_folds, removal_holds, step_windows
+from pysim.diagnosis.diagnose import diagnose
+from pysim.diagnosis.folds import make_folds, step_windows
+from pysim.diagnosis.rules import decide, removal_holds
 from pysim.diagnosis.excitation import separating_excitation
 from pysim.diagnosis.input_stages import InputStageModel, input_lowpass, slew_limit
 from pysim.diagnosis.validation import score_on_record
@@ -257,7 +259,7 @@ def test_a_second_record_that_only_the_first_records_hysteresis_fails_is_not_dec
     (with one BLAS thread the delay was named before this rule)."""
     import independent_records
 
-    from pysim.diagnosis.diagnose import _rate_independent_excess
+    from pysim.diagnosis.second_record import _rate_independent_excess
 
     pair = independent_records.make_pair(65)
     train, other = pair.train, pair.validation
@@ -495,7 +497,7 @@ def test_look_alike_dynamics_are_ranked_by_how_their_structures_fit_both_records
     and sines, validated on a multisine.  Whatever the diagnosis names, the rule that tells the
     look-alikes apart on both records in sample must never displace the true structure by the
     other one, and must displace the other one by the true structure when the verdict names it."""
-    from pysim.diagnosis.diagnose import _structure_on_both
+    from pysim.diagnosis.second_record import _structure_on_both
 
     tau = 1.5e-3
     v1, v2 = steps_and_sines(plant, 14000, 21), multisine(plant, 9000, 22)
@@ -697,7 +699,7 @@ def test_a_cause_the_steps_name_is_tested_on_the_second_records_own_hysteresis()
     by more than the noise margin -- the slew limit does not: the lag is not named."""
     import independent_records
 
-    from pysim.diagnosis.diagnose import _raised_on_own_hysteresis
+    from pysim.diagnosis.second_record import _raised_on_own_hysteresis
 
     pair = independent_records.make_pair(263)
     assert pair.truth.effect == "slew_limit"
@@ -827,7 +829,7 @@ def test_a_first_record_that_misses_part_of_the_range_hands_the_fit_to_the_secon
     model predicts the third record inside the noise."""
     import independent_records
 
-    from pysim.diagnosis.diagnose import range_beyond_first
+    from pysim.diagnosis.folds import range_beyond_first
 
     pair = independent_records.make_pair(9, effect="rate_dependence")
     fs = pair.train.sample_rate_hz
@@ -864,7 +866,7 @@ def test_an_effect_the_second_records_own_fit_cannot_take_is_left_out_there(plan
     reason.  Identification fails here on purpose for every family with an input stage."""
     from types import SimpleNamespace
 
-    from pysim.diagnosis.diagnose import _raised_on_own_hysteresis
+    from pysim.diagnosis.second_record import _raised_on_own_hysteresis
     from pysim.identification.identify import IdentificationError
 
     v1 = multisine(plant, 8000, 41)
@@ -1221,7 +1223,7 @@ def test_folds_leave_out_samples_where_an_operator_leaves_the_states_training_sh
 
 
 def test_the_median_score_where_states_were_seen_leaves_out_blocks_that_score_a_handful_of_samples():
-    from pysim.diagnosis.diagnose import MIN_SCORED_PER_BLOCK, _blocked_score, _well_scored
+    from pysim.diagnosis.scoring import MIN_SCORED_PER_BLOCK, _blocked_score, _well_scored
 
     n = 1000
     y = np.zeros(4 * n)

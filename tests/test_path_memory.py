@@ -8,8 +8,8 @@ the same path played at another speed gives the same output.
 import numpy as np
 import pytest
 
-from pysim.diagnosis.diagnose import path_corrected
 from pysim.diagnosis.path_memory import path_memory, path_predicted
+from pysim.diagnosis.shape import path_corrected
 
 from independent_records import preisach_relays
 

@@ -1,0 +1,91 @@
+"""Dynamics that show only in the responses to steps.
+
+A fast stage (a delay, a lag, a slew limit, an input low-pass) may show only
+in the few samples after large steps, which the median over the
+cross-validation blocks never weighs.  :func:`shown_by_steps` predicts every
+step into a hold with its group of steps left out of the fit and names a
+cause of ``DYNAMICS`` when it takes most of what the rate-independent model
+leaves there.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pysim.diagnosis.candidates import CandidateFitter
+from pysim.diagnosis.folds import _settle_samples, _step_folds, step_windows
+from pysim.diagnosis.rules import (DECISIVE_SHARE, DYNAMICS, NOISE_FRACTION, TIE_FRACTION, UNEXPLAINED_LEVEL,
+                                   _simplest_unless_outranked, advantage_holds)
+from pysim.diagnosis.scoring import _cross_validate
+
+__all__ = ["shown_by_steps"]
+
+
+def shown_by_steps(fitter: CandidateFitter, baseline, richer, candidates: dict, y, noise_um: float,
+                    complexity: dict):
+    """The verdict of the responses to steps into holds, or None when they show nothing.
+
+    The median over cross-validation blocks weighs what a record shows
+    throughout; a fast stage (a delay, a lag, a slew limit) may show only in
+    the few samples after each large step (independent seed 263: a 75 V/ms
+    slew limit leaves 0.012 σ² above the noise in the median block and
+    660 000 σ² in the samples after two full-range steps).  Those windows
+    (:func:`step_windows`) are predicted out of sample -- each group of them
+    left out of the fit -- by the better rate-independent model and by every
+    candidate in ``DYNAMICS``.  When the rate-independent model leaves at
+    least ``UNEXPLAINED_LEVEL`` σ² of mean-square error there, a candidate
+    is named that removes at least ``DECISIVE_SHARE`` of that excess, makes
+    no window worse by the noise margin, and does not raise the blocked
+    cross-validated error by the noise margin; the candidates within the tie
+    margin of the best are named with it, the simplest first.  Every
+    structure of a cause is tried (a lag and a resonance, which the blocks
+    may not tell apart); ``structures`` holds the one each named cause keeps.
+    """
+    settle = _settle_samples(y.size)
+    windows = [(first, stop) for first, stop in step_windows(fitter.v, settle) if first >= settle]
+    s2 = noise_um**2
+    dynamics = [c for c in DYNAMICS if c in candidates]
+    if not windows or not dynamics or not s2 > 0:
+        return None
+    rows = np.concatenate([np.arange(first, stop) for first, stop in windows])
+    folds = _step_folds(windows, settle, y.size)
+
+    def window_errors(ev):
+        """(prediction, mean-square error on every window, on all of them) out of sample."""
+        prediction = _cross_validate(fitter, ev.fit.family, ev.fit, folds, y)
+        per_window = np.array([float(np.mean((y[a:b] - prediction[a:b]) ** 2)) for a, b in windows])
+        return prediction, per_window, float(np.mean((y[rows] - prediction[rows]) ** 2))
+
+    _, per_window, ref_mse = min((window_errors(ev) for ev in (baseline, richer)), key=lambda r: r[2])
+    excess = ref_mse - s2
+    if excess < UNEXPLAINED_LEVEL * s2:
+        return None
+    ref_cv = min(baseline.mse_um2, richer.mse_um2)
+    mse, predictions, removed, structures = {}, {}, {}, {}
+    for c in dynamics:
+        # every structure of the cause (a lag and a resonance: the blocks may not tell them apart)
+        for ev in candidates[c].structures or [candidates[c]]:
+            if ev.mse_um2 > ref_cv + NOISE_FRACTION * s2:
+                continue            # worse where the blocked cross-validation scores
+            prediction, errors, value = window_errors(ev)
+            if (ref_mse - value >= DECISIVE_SHARE * excess and np.all(errors - per_window < NOISE_FRACTION * s2)
+                    and value < mse.get(c, math.inf)):
+                mse[c], predictions[c], structures[c] = value, prediction, ev
+                removed[c] = (ref_mse - value) / excess
+    if not mse:
+        return None
+    best = min(mse, key=mse.get)
+    margin = max(NOISE_FRACTION * s2, TIE_FRACTION * (mse[best] - s2))
+    ties = sorted((c for c in mse if mse[c] - mse[best] <= margin), key=mse.get)
+
+    def outranks(a, b):
+        return advantage_holds(y[rows], predictions[b][rows], predictions[a][rows])
+
+    winner = _simplest_unless_outranked(ties, best, complexity, mse, outranks)
+    causes = tuple([winner] + [c for c in ties if c != winner])
+    return {"cause": winner, "causes": causes, "best": best, "explained_share": removed[best],
+            "significant": {c: c in mse for c in candidates}, "text": "",
+            "structures": {c: structures[c] for c in causes},
+            "steps": {"windows": len(windows), "samples": int(rows.size), "excess_sigma2": float(excess / s2),
+                      "removed_share": {c: float(x) for c, x in removed.items()}}}
