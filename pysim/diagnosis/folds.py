@@ -26,6 +26,7 @@ __all__ = ["N_FOLDS", "STEP_SHARE", "STEP_RISE_SAMPLES", "HOLD_SHARE", "SETTLE_M
            "split_record", "range_beyond_first", "make_folds", "character_split", "step_windows"]
 
 
+#: Contiguous blocks of the blocked cross-validation (each held out once).
 N_FOLDS = 5
 #: A step into a hold (:func:`step_windows`): the input moves this share of its span or more within
 #: STEP_RISE_SAMPLES samples, then stays within HOLD_SHARE of its span while the response settles.

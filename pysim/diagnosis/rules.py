@@ -1,4 +1,4 @@
-"""The rules that name a cause: significance, ties, `unexplained`, and the
+"""The rules that name a cause: significance, ties, ``unexplained``, and the
 tests that an advantage holds across a record.
 
 :func:`decide` turns the cross-validated mean-square errors of the candidates
