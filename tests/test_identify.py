@@ -326,6 +326,25 @@ def test_a_one_way_record_is_fitted_as_its_own_curve_and_says_why(direction):
     assert np.sqrt(np.mean(left**2)) > 1e-3 * span
 
 
+def test_rows_that_identify_nothing_in_a_record_that_does_give_no_operator_a_weight():
+    """A fitted part that only falls inside a record that rises and falls (a training part of the
+    cross-validation): the model is to predict the rise, which the part does not excite, so no
+    operator gets a weight from it (a1 u³ + a2 u + offset). The same samples as a record of their
+    own are fitted as their curve. Before, such a training part's operators took weights from the
+    falling curve and predicted the held-out rise with loops never measured (independent seed 17:
+    the delivered model's cross-validated RMS 2.72 % of the range became 4.74 %)."""
+    truth = paper_model()
+    top = truth.voltage_range_V[1]
+    rise, fall = np.linspace(0.0, top, 1500), np.linspace(top, 0.0, 1500)
+    v = np.r_[rise, fall, rise]
+    y = truth.simulate(v)
+    falling = np.arange(1500, 3000)
+    part = identify(v, y, fit_rows=falling, require_excitation=False)
+    assert "only falls" in part.unidentified_reason and not np.any(part.model.weights)
+    alone = identify(v[falling], y[falling], require_excitation=False)
+    assert "only falls" in alone.unidentified_reason and np.any(alone.model.weights)
+
+
 def test_a_record_between_two_levels_is_fitted_as_a_line_and_says_why():
     """Steps between two voltages show no loop and no curvature: u³ is then a combination of u and
     the offset, every operator of a straight line.  Without require_excitation the fit is the line

@@ -637,6 +637,17 @@ def _reversal_check(v, rows, where):
             "(record at least one full cycle across the range)")
 
 
+def _identifies_nothing(v, thresholds, low, high, span) -> bool:
+    """Whether the whole record, not only the rows fitted, leaves every operator unidentified."""
+    every = slice(0, v.size)
+    try:
+        _reversal_check(v, every, "")
+    except IdentificationError:
+        return True
+    anchor, _ = _merge_plan(thresholds, operator_travel(low, high, every, v), span)
+    return bool(np.any(thresholds > 0) and not np.any(anchor >= 0))
+
+
 def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = "mpi",
              operator: str = "osp", thresholds_V=None, warmup="auto", fit_slice: slice = None,
              min_slope_fraction: float = 0.01, extra_regressors: dict = None, extra_nonnegative=(),
@@ -706,7 +717,10 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         columns with their estimated states, dependent ones tied; on an
         input that only rises they are ramps) and every operator is
         reported as not identifiable (``unidentified_reason``): the weights
-        describe this record's curve, not the loops of another input.
+        describe this record's curve, not the loops of another input.  When
+        only the rows fitted identify nothing (``fit_rows`` of a record that
+        does), the model is to predict rows they do not excite, and it is
+        ``a1 u³ + a2 u + offset``.
     name, description : str
         Stored in the model.
 
@@ -812,15 +826,19 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         if require_excitation:
             raise IdentificationError(message)
         unexcited_message = unexcited_message or message
-    static_curve = unexcited_message is not None
+    static_curve = unexcited_message is not None and _identifies_nothing(v, r, low, high, hi - lo)
     if static_curve:
-        # no operator's hysteresis can be identified: all are reported as such, but each keeps its column
-        # (dependent ones are tied below), so the fit is the record's own curve, as a rate-independent
-        # reference must be: on an input that only rises the operators are ramps whose knots the
-        # estimated states place.  a1 u³ + a2 u + offset alone left the loading curve's shape, which a
-        # diagnosis then blamed on creep (a time function is an input function on a ramp)
+        # the whole record identifies no operator's hysteresis: all are reported as such, but each keeps
+        # its column (dependent ones are tied below), so the fit is the record's own curve, as a
+        # rate-independent reference must be: on an input that only rises the operators are ramps whose
+        # knots the estimated states place.  a1 u³ + a2 u + offset alone left the loading curve's shape,
+        # which a diagnosis then blamed on creep (a time function is an input function on a ramp)
         anchor = np.where(r > 0, np.arange(r.size), -1)
         factor = np.ones(r.size)
+    elif unexcited_message is not None:
+        # only the fitted rows identify nothing (a training part of a record that does): the model is
+        # to predict rows these do not excite, so no operator gets a weight here (a1 u³ + a2 u + offset)
+        anchor = np.full(r.size, -1)
     n_lin = 2 if cubic else 1
 
     def layout():
