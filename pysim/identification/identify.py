@@ -637,15 +637,25 @@ def _reversal_check(v, rows, where):
             "(record at least one full cycle across the range)")
 
 
-def _identifies_nothing(v, thresholds, low, high, span) -> bool:
-    """Whether the whole record, not only the rows fitted, leaves every operator unidentified."""
-    every = slice(0, v.size)
+def _why_unidentified(v, rows, thresholds, travel, span, where, merge=True):
+    """Why fitting ``rows`` identifies no operator's hysteresis (None when it identifies one), with
+    the merge plan ``(anchor, factor)`` for those rows from the operators' ``travel`` over them (see
+    :func:`_merge_plan`; without ``merge`` every operator keeps its own weight)."""
     try:
-        _reversal_check(v, every, "")
-    except IdentificationError:
-        return True
-    anchor, _ = _merge_plan(thresholds, operator_travel(low, high, every, v), span)
-    return bool(np.any(thresholds > 0) and not np.any(anchor >= 0))
+        _reversal_check(v, rows, where)
+        reason = None
+    except IdentificationError as exc:
+        reason = str(exc)
+    r = np.asarray(thresholds, dtype=float)
+    if merge:
+        anchor, factor = _merge_plan(r, travel, span)
+    else:
+        anchor, factor = np.where(r > 0, np.arange(r.size), -1), np.ones(r.size)
+    if reason is None and np.any(r > 0) and not np.any(anchor >= 0):
+        reason = (f"no operator is excited over samples {where}: the input never travels more than the "
+                  f"smallest threshold ({float(np.min(r[r > 0])):.4g} V) in one direction after a "
+                  "reversal; record at least one rise and fall over most of the range")
+    return reason, anchor, factor
 
 
 def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = "mpi",
@@ -795,14 +805,6 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         raise IdentificationError(
             f"{n_rows} samples to fit (after a warm-up of {start}) but the model has {n_params_hint} "
             f"parameters: need at least {n_params_hint + 1}")
-    try:
-        _reversal_check(v, rows, f"{first}..{stop - 1}")
-        unexcited_message = None
-    except IdentificationError as exc:
-        if require_excitation:
-            raise
-        unexcited_message = str(exc)
-
     u = v - input_offset
     low, high = operator_bounds(v, r, operator, input_offset)
     demagnetised = np.clip(np.zeros(r.size), low[0], high[0])
@@ -814,19 +816,14 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     else:
         state0 = demagnetised
     travel = operator_travel(low, high, rows, v)
-    if merge_unexcited:
-        anchor, factor = _merge_plan(r, travel, hi - lo)
-    else:
-        anchor = np.where(r > 0, np.arange(r.size), -1)
-        factor = np.ones(r.size)
-    if np.any(r > 0) and not np.any(anchor >= 0):
-        message = (f"no operator is excited over samples {first}..{stop - 1}: the input never travels more "
-                   f"than the smallest threshold ({float(np.min(r[r > 0])):.4g} V) in one direction after a "
-                   "reversal; record at least one rise and fall over most of the range")
-        if require_excitation:
-            raise IdentificationError(message)
-        unexcited_message = unexcited_message or message
-    static_curve = unexcited_message is not None and _identifies_nothing(v, r, low, high, hi - lo)
+    unexcited_message, anchor, factor = _why_unidentified(v, rows, r, travel, hi - lo, f"{first}..{stop - 1}",
+                                                          merge=merge_unexcited)
+    if unexcited_message is not None and require_excitation:
+        raise IdentificationError(unexcited_message)
+    whole = isinstance(rows, slice) and first == 0 and stop == v.size
+    static_curve = unexcited_message is not None and (
+        whole or _why_unidentified(v, slice(0, v.size), r, operator_travel(low, high, slice(0, v.size), v),
+                                   hi - lo, "")[0] is not None)
     if static_curve:
         # the whole record identifies no operator's hysteresis: all are reported as such, but each keeps
         # its column (dependent ones are tied below), so the fit is the record's own curve, as a
