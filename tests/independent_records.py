@@ -1000,10 +1000,11 @@ def plant_from_dict(plant: dict) -> Plant:
                  float(plant["sensor_offset_um"]))
 
 
-def respond(pair: RecordPair, voltage_V, *, noise_seed: int = 0) -> Record:
+def respond(pair: RecordPair, voltage_V, *, noise_seed: int = 0, sample_rate_hz: float | None = None) -> Record:
     """A record of the pair's actuator (plant, effect, noise, sensor) for any
-    voltage, sampled at the pair's rate -- what the rig would measure if that
-    voltage were played on it, e.g. an excitation a diagnosis suggests.
+    voltage, sampled at the pair's rate or at ``sample_rate_hz`` -- what the rig
+    would measure if that voltage were played on it, e.g. an excitation a
+    diagnosis suggests.
 
     The actuator starts from rest at the bottom of its range and is ramped to
     the first voltage over 0.05 s before the record starts; between samples
@@ -1013,22 +1014,28 @@ def respond(pair: RecordPair, voltage_V, *, noise_seed: int = 0) -> Record:
     ----------
     pair : RecordPair
     voltage_V : array_like
-        Voltage samples at ``pair.train.sample_rate_hz``; clipped to the range.
+        Voltage samples at the record's rate; clipped to the range.
     noise_seed : int
         Seed of the noise.
+    sample_rate_hz : float, optional
+        The record's rate (default ``pair.train.sample_rate_hz``); the noise
+        per sample is the pair's.
 
     Returns
     -------
     Record (``input_kind`` "given", no settling window beyond the ramp)
     """
     plant = plant_from_dict(pair.truth.plant)
-    fs = pair.train.sample_rate_hz
+    fs = float(sample_rate_hz or pair.train.sample_rate_hz)
     lo, hi = plant.voltage_range_V
     v = np.clip(np.asarray(voltage_V, dtype=float).ravel(), lo, hi)
     times = np.arange(v.size) / fs
     timeline = _Timeline(fs, v.size, math.ceil(0.1 * fs) + 2, lambda t: np.interp(t, times, v),
                          np.array([-0.1, -0.05, 0.0]), np.array([lo, lo, v[0]]), lo)
-    clean = _respond(plant, pair.truth.effect_parameters, timeline)
+    effect = dict(pair.truth.effect_parameters)
+    if effect["name"] == "delay":          # stated in samples of the pair's rate: the same time here
+        effect["delay_samples"] *= fs / pair.train.sample_rate_hz
+    clean = _respond(plant, effect, timeline)
     rng = np.random.default_rng(noise_seed)
     lsb = pair.truth.quantisation_step_um
     y = clean + plant.sensor_offset_um + rng.normal(0.0, pair.truth.noise_sigma_um, v.size)

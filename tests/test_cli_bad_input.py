@@ -17,6 +17,7 @@ import sys
 import zipfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 from robustness import fmu_pair
 from test_data import BAD_FILES
@@ -112,6 +113,27 @@ def test_diagnose_refuses_a_record_with_a_pause_before_any_work(tmp_path, capsys
         assert f"{paused}: the samples are not evenly spaced" in message, message
         assert f"after t = {t_before:.6g} s" in message, message
     assert snapshot(tmp_path) == before
+
+
+def test_diagnose_refuses_a_second_record_at_a_rate_it_cannot_use_before_any_work(tmp_path, capsys):
+    """A second record at 1.5 times the first's rate (or at half of it) would need interpolated samples,
+    whose noise looks smaller than it is: one line naming both rates, exit 2, nothing written."""
+    from pysim.identification.data import MeasuredData, save_measured
+
+    k = np.arange(3000)
+    v = 60.0 + 50.0 * np.sin(2 * np.pi * k / 600)
+    first = save_measured(MeasuredData(k / 2000.0, v, 0.1 * v, "first"), tmp_path / "first.csv")
+    for rate in (3000.0, 1000.0):
+        other = save_measured(MeasuredData(k / rate, v, 0.1 * v, "other"), tmp_path / f"other_{rate:g}.csv")
+        before = snapshot(tmp_path)
+        code = pysim_main(["diagnose", str(first), "--validate", str(other), "--out", str(tmp_path / "x.py"),
+                           "--report", str(tmp_path / "report")])
+        assert code == 2
+        message = one_error_line(capsys, "pysim diagnose: error: ")
+        expected = f"pysim diagnose: error: {other}: a record at {rate:g} Hz cannot be used at 2000 Hz"
+        assert message.startswith(expected), message
+        assert message.endswith(f"(the models run at the sample period of {first})"), message
+        assert snapshot(tmp_path) == before
 
 
 def test_a_report_path_that_is_a_file_or_has_no_folder_is_refused(tmp_path, capsys):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ from pysim.identification.data import (
     load_measured,
     require_even_sampling,
     require_samples,
+    resample_record,
     save_measured,
     shipped_dataset,
 )
@@ -363,6 +365,37 @@ def test_require_even_sampling_passes_jitter_and_refuses_a_missing_sample_or_a_p
         assert message.startswith("rig.csv: the samples are not evenly spaced")
         assert f"an interval of {interval:.6g} s after t = {after:.6g} s" in message, message
         assert "the diagnosis needs evenly spaced samples" in message
+
+
+def test_resample_record_keeps_the_samples_on_the_grid_and_invents_none():
+    n = 1001
+    ramp = 0.5 * np.arange(n)
+    noisy = np.random.default_rng(2).normal(size=n)
+    # every m-th sample when the record is m times faster: the samples themselves, noise and all
+    v, y, how = resample_record(ramp, noisy, 5000.0, 1000.0)
+    assert how == "every 5th sample" and np.array_equal(v, ramp[::5]) and np.array_equal(y, noisy[::5])
+    assert resample_record(ramp, noisy, 12000.0, 1000.0)[2] == "every 12th sample"
+    # two loggers' rounding of one rate: misplaced by less than half a sample at the end, used as recorded
+    for rate in (2000.0 * (1 + 0.4 / n), 2000.0 * (1 - 0.4 / n)):
+        v, y, how = resample_record(ramp, noisy, 2000.0, rate)
+        assert how == "as recorded" and np.array_equal(v, ramp) and np.array_equal(y, noisy)
+    # ... the same for a multiple; and refused when the end would be a sample off or the ratio is not whole
+    assert resample_record(ramp, noisy, 4000.0 * (1 + 0.4 / n), 2000.0)[2] == "every 2nd sample"
+    for from_hz, to_hz in ((2000.0, 2000.0 * (1 + 1.2 / n)), (3000.0, 2000.0), (1000.0, 2000.0)):
+        with pytest.raises(DataError) as refused:
+            resample_record(ramp, noisy, from_hz, to_hz)
+        assert str(refused.value).startswith(f"a record at {from_hz:g} Hz cannot be used at {to_hz:g} Hz")
+
+
+def test_resample_record_refuses_bad_rates_and_too_few_samples():
+    for rates, fragment in (((0.0, 1000.0), "from_rate_hz must be a positive number of Hz, got 0.0"),
+                            ((1000.0, math.nan), "to_rate_hz must be a positive number of Hz, got nan")):
+        with pytest.raises(DataError, match=re.escape(fragment)):
+            resample_record(np.arange(10.0), np.arange(10.0), *rates)
+    with pytest.raises(DataError, match="3 samples at 3000 Hz leave 1 at 1000 Hz"):
+        resample_record(np.arange(3.0), np.arange(3.0), 3000.0, 1000.0)
+    with pytest.raises(DataError, match="at least 2 samples"):
+        resample_record(np.arange(3.0), np.arange(4.0), 1000.0, 500.0)
 
 
 def test_require_samples():

@@ -963,11 +963,37 @@ def test_an_mpi_record_gets_no_shape_correction():
         assert d.shape == {}, (seed, d.shape)
 
 
-def test_second_record_at_another_sample_rate_is_one_clear_error(plant):
-    v = multisine(plant, 4000, 1)
-    y = plant.simulate(v)
-    with pytest.raises(ValueError, match="resample"):
-        diagnose(v, y, FS, validate=(v, y, 2 * FS))
+def test_a_second_record_at_a_multiple_of_the_rate_is_used_at_every_mth_sample_and_another_rate_refused():
+    import independent_records
+
+    pair = independent_records.make_pair(6)         # a low-pass before the hysteresis, 2 kHz
+    fs, first = pair.train.sample_rate_hz, pair.train
+    t_s = np.arange(pair.validation.voltage_V.size) / fs
+    found = {}
+    for factor in (1, 2):
+        # the same voltage played on the true actuator and logged at fs and at 2 fs (the generator's
+        # ADC samples the continuous response; between samples the voltage is linear in both)
+        rate = factor * fs
+        t2_s = np.arange(int(t_s[-1] * rate + 1e-9) + 1) / rate
+        other = independent_records.respond(pair, np.interp(t2_s, t_s, pair.validation.voltage_V), noise_seed=7,
+                                            sample_rate_hz=rate)
+        found[factor] = diagnose(first.voltage_V, first.displacement_um, fs, source="first.csv",
+                                 validate=(other.voltage_V, other.displacement_um, rate),
+                                 validate_source="other.csv")
+    assert found[1].cause == found[2].cause == pair.truth.effect_parameters["name"] == "rate_dependent_hysteresis"
+    assert found[1].validation["resampled"] == ""
+    assert found[2].validation["resampled"] == ("other.csv was sampled at 4000 Hz and is used at 2000 Hz, the rate "
+                                                "of first.csv: every 2nd sample")
+    assert found[2].validation["resampled"] in found[2].validation["note"]
+    # a slower second record, or one at another ratio, would need samples invented: one message, no fit
+    v2, y2 = pair.validation.voltage_V, pair.validation.displacement_um
+    for rate in (1.5 * fs, fs / 2):
+        with pytest.raises(ValueError) as refused:
+            diagnose(first.voltage_V, first.displacement_um, fs, source="first.csv", validate=(v2, y2, rate),
+                     validate_source="other.csv")
+        message = str(refused.value)
+        assert message.startswith(f"other.csv: a record at {rate:g} Hz cannot be used at {fs:g} Hz"), message
+        assert message.endswith("(the models run at the sample period of first.csv)") and "\n" not in message
 
 
 # ------------------------------------------------------------ ambiguity

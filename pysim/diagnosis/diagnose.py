@@ -109,6 +109,8 @@ from pysim.diagnosis.second_record import (_RolesStand, _best_fitted_on_both_rec
 from pysim.diagnosis.shape import correct_for_shape
 from pysim.diagnosis.steps import shown_by_steps
 from pysim.diagnosis.validation import score_on_record
+from pysim.identification.data import resample_record
+from pysim.identification.errors import DataError
 from pysim.identification.identify import IdentificationError, identify, require_rising, start_transient
 
 __all__ = ["diagnose", "Diagnosis"]
@@ -355,6 +357,14 @@ def _reasons(candidates: dict, stats: dict, steps: dict | None = None) -> dict:
     return text
 
 
+def _note_resampling(validation: dict, resampled: str) -> None:
+    """Say in the second record's table how that record was put on the first one's sample period."""
+    if validation is not None:
+        validation["resampled"] = resampled
+        if resampled:
+            validation["note"] += f"; {resampled}"
+
+
 def _check_record(v, y, sample_rate_hz, what: str):
     if v.shape != y.shape:
         raise DiagnosisError(f"{what}{v.size} voltage samples but {y.size} displacement samples")
@@ -407,7 +417,10 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         A second record that cannot identify the hysteresis still shows the
         shape of a lag, resonance, delay, input low-pass or slew limit (the
         response to each step): those shapes are searched there, with the
-        first record's hysteresis.
+        first record's hysteresis.  A second record sampled a whole number of
+        times faster is used at every m-th sample
+        (:func:`pysim.identification.data.resample_record`), and the report
+        says so; rates that differ by a logger's rounding count as one.
     name : str
         Name of the extended model (a C identifier).
     source, validate_source : str
@@ -421,7 +434,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     ------
     DiagnosisError
         When a record cannot be diagnosed (too short, constant, one-directional,
-        a second record at another sample rate), with one message naming it.
+        a second record at a rate that is not the first's or a whole multiple
+        of it), with one message naming it.
 
     Examples
     --------
@@ -441,6 +455,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     given = (v, y, sample_rate_hz)
     where = f"{source}: " if source else ""
     _check_record(v, y, sample_rate_hz, where)
+    resampled = ""
     if validate is not None:
         try:
             v2, y2, rate2 = validate
@@ -449,10 +464,20 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         v2, y2 = np.asarray(v2, dtype=float).ravel(), np.asarray(y2, dtype=float).ravel()
         where2 = f"{validate_source}: " if validate_source else "second record: "
         _check_record(v2, y2, rate2, where2)
-        if abs(float(rate2) / float(sample_rate_hz) - 1.0) > 1e-6:
-            raise DiagnosisError(f"{where2}sampled at {float(rate2):g} Hz but the first record at "
-                                 f"{float(sample_rate_hz):g} Hz: the extended models run at one sample period, "
-                                 "resample one of them")
+        # the extended models run at one sample period, the first record's (the one a spec is written for)
+        try:
+            v2, y2, resampled = resample_record(v2, y2, float(rate2), float(sample_rate_hz))
+        except DataError as exc:
+            raise DiagnosisError(f"{where2}{exc} (the models run at the sample period of "
+                                 f"{source or 'the first record'})") from exc
+        if resampled != "as recorded":
+            resampled = (f"{validate_source or 'the second record'} was sampled at {float(rate2):g} Hz and is "
+                         f"used at {float(sample_rate_hz):g} Hz, the rate of {source or 'the first record'}: "
+                         f"{resampled}")
+            _check_record(v2, y2, sample_rate_hz, where2)
+        else:
+            resampled = ""
+        rate2 = sample_rate_hz
     T = 1.0 / float(sample_rate_hz)
     time = np.arange(v.size) * T if time_s is None else np.asarray(time_s, dtype=float).ravel()
     try:
@@ -484,12 +509,14 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     def in_turn(reason):
         """The same diagnosis with the records' roles swapped, or None when the given order stands."""
         try:
-            return diagnose(v2, y2, rate2, n_operators=n_operators, model=model, operator=operator,
-                            train_fraction=train_fraction, validate=given, name=name,
-                            source=validate_source or "second record", validate_source=source or "first record",
-                            _swap_reason=reason)
+            turned = diagnose(v2, y2, rate2, n_operators=n_operators, model=model, operator=operator,
+                              train_fraction=train_fraction, validate=given, name=name,
+                              source=validate_source or "second record", validate_source=source or "first record",
+                              _swap_reason=reason)
         except (_RolesStand, DiagnosisError):
             return None
+        _note_resampling(turned.validation, resampled)
+        return turned
 
     if unidentified and validate is not None:
         # every model fitted here would be scored on the second record for the hysteresis this record
@@ -615,6 +642,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         validation, v_verdict = validate_on_second_record(fitter, baseline, richer, candidates, v, v2, y2,
                                                           complexity, cv_verdict, noise, outranks, second_fitter)
         validation["source"] = validate_source
+        _note_resampling(validation, resampled)
         if validation.get("shape"):
             shape["second"] = validation["shape"]
         if shaped_on_second:

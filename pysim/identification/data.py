@@ -43,7 +43,8 @@ from pysim.identification.errors import DataError, IdentificationError
 
 __all__ = [
     "COLUMNS", "MeasuredData", "load_measured", "load_reference", "save_measured", "require_samples",
-    "estimate_sample_rate", "require_even_sampling", "EVEN_SAMPLING_SPREAD", "shipped_dataset", "SHIPPED_DATASETS",
+    "estimate_sample_rate", "require_even_sampling", "resample_record", "EVEN_SAMPLING_SPREAD", "shipped_dataset",
+    "SHIPPED_DATASETS",
 ]
 
 #: The standard column names, in the order :func:`save_measured` writes them.
@@ -211,6 +212,77 @@ def require_even_sampling(data: MeasuredData, what: str) -> None:
         raise DataError(f"{data.source or 'data'}: the samples are not evenly spaced: an interval of "
                         f"{steps[worst]:.6g} s after t = {t[worst]:.6g} s against a median of {median:.6g} s; "
                         f"{what} needs evenly spaced samples (resample the record, or split it at the gap)")
+
+
+def resample_record(voltage_V, displacement_um, from_rate_hz: float, to_rate_hz: float) -> tuple:
+    """The samples of a record taken at ``from_rate_hz`` that fall on the grid of ``to_rate_hz``.
+
+    Nothing is interpolated, so nothing is filtered, shifted in time or
+    invented, and the displacement's noise stays white (interpolated samples
+    would make it look smaller and correlated, and every significance test
+    would then see effects in it).  Two cases are accepted:
+
+    * *as recorded*: the rates differ by so little that the samples, used as
+      they are, are misplaced by less than half a sample at the record's end
+      (two loggers' rounding of one rate);
+    * *every m-th sample*: the record is m times faster, by the same rule.
+
+    Parameters
+    ----------
+    voltage_V, displacement_um : array_like
+        The record, one sample per ``1 / from_rate_hz`` s.
+    from_rate_hz, to_rate_hz : float
+        Its sample rate and the one wanted, Hz.
+
+    Returns
+    -------
+    voltage_V, displacement_um : ndarray
+    how : str
+        ``"as recorded"`` or ``"every m-th sample"`` (m the number).
+
+    Raises
+    ------
+    DataError
+        When a rate is not a positive finite number, when ``from_rate_hz`` is
+        not ``to_rate_hz`` or a whole multiple of it, or when fewer than two
+        samples would be left.
+
+    Examples
+    --------
+    >>> v = np.arange(10.0)
+    >>> v2, y2, how = resample_record(v, 2 * v, 2000.0, 1000.0)
+    >>> v2.tolist(), how
+    ([0.0, 2.0, 4.0, 6.0, 8.0], 'every 2nd sample')
+    >>> resample_record(v, 2 * v, 1000.0, 1000.0 * (1 + 1e-5))[2]
+    'as recorded'
+    >>> try:
+    ...     resample_record(v, 2 * v, 1000.0, 2000.0)
+    ... except DataError as exc:
+    ...     print(str(exc)[:51])
+    a record at 1000 Hz cannot be used at 2000 Hz: only
+    """
+    v = np.asarray(voltage_V, dtype=float).ravel()
+    y = np.asarray(displacement_um, dtype=float).ravel()
+    for name, rate in (("from_rate_hz", from_rate_hz), ("to_rate_hz", to_rate_hz)):
+        if not (isinstance(rate, (int, float, np.floating, np.integer)) and math.isfinite(rate) and rate > 0):
+            raise DataError(f"{name} must be a positive number of Hz, got {rate}")
+    if v.size != y.size or v.size < 2:
+        raise DataError(f"a record to resample needs at least 2 samples of voltage and displacement each "
+                        f"(got {v.size} and {y.size})")
+    ratio = float(from_rate_hz) / float(to_rate_hz)        # input samples per output sample
+    m = max(1, round(ratio))
+    # the misplacement, in input samples, of the last kept sample when the ratio is taken as m
+    if abs(m / ratio - 1.0) * (v.size - 1) >= 0.5:
+        raise DataError(f"a record at {float(from_rate_hz):g} Hz cannot be used at {float(to_rate_hz):g} Hz: only "
+                        "the same rate or a whole multiple of it is used, every m-th sample (interpolating would "
+                        "invent samples and make the noise look smaller); record at "
+                        f"{float(to_rate_hz):g} Hz or a whole multiple of it, or give both records at a common rate")
+    if m == 1:
+        return v.copy(), y.copy(), "as recorded"
+    if (v.size - 1) // m + 1 < 2:
+        raise DataError(f"{v.size} samples at {float(from_rate_hz):g} Hz leave 1 at {float(to_rate_hz):g} Hz")
+    ordinal = {1: "st", 2: "nd", 3: "rd"}.get(m % 10 if m % 100 not in (11, 12, 13) else 0, "th")
+    return v[::m].copy(), y[::m].copy(), f"every {m}{ordinal} sample"
 
 
 def save_measured(data: MeasuredData, path) -> Path:

@@ -140,6 +140,8 @@ def format_text(result, report, out) -> str:
         lines.append(f"\n  second record (baseline re-fit: offset {table['offset_um']:+.4g} µm, gain {table['gain']:.4g}): "
                      f"cause {result.validation['cause']}; "
                      f"cross-validation alone: {result.cross_validation_cause}")
+        if result.validation.get("resampled"):
+            lines.append(f"  {result.validation['resampled']}")
     if result.records_swapped:
         lines.append(f"  records swapped: {result.swap_reason}, so the models were fitted on "
                      f"{result.source or 'the second record'} and scored on "
