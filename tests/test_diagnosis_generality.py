@@ -497,7 +497,7 @@ def test_look_alike_dynamics_are_ranked_by_how_their_structures_fit_both_records
     and sines, validated on a multisine.  Whatever the diagnosis names, the rule that tells the
     look-alikes apart on both records in sample must never displace the true structure by the
     other one, and must displace the other one by the true structure when the verdict names it."""
-    from pysim.diagnosis.second_record import _structure_on_both
+    from pysim.diagnosis.second_record import structure_on_both
 
     tau = 1.5e-3
     v1, v2 = steps_and_sines(plant, 14000, 21), multisine(plant, 9000, 22)
@@ -514,12 +514,12 @@ def test_look_alike_dynamics_are_ranked_by_how_their_structures_fit_both_records
     assert d.candidates[truth].significant and d.candidates[other].significant, d.why
     fitter = CandidateFitter(d.voltage_V, d.displacement_um, T)
     reference = min(d.baseline.validation["mse_um2"], d.richer.validation["mse_um2"])
-    found = _structure_on_both(fitter, d.candidates, (other,), d.displacement_um, v2, y2, d.noise_um, reference)
+    found = structure_on_both(fitter, d.candidates, (other,), d.displacement_um, v2, y2, d.noise_um, reference)
     assert found is not None and found[0] == truth, found
     errors = found[1]
     assert errors[truth][0] < errors[other][0] and errors[truth][1] < errors[other][1], errors
-    assert _structure_on_both(fitter, d.candidates, (truth,), d.displacement_um, v2, y2, d.noise_um,
-                              reference) is None
+    assert structure_on_both(fitter, d.candidates, (truth,), d.displacement_um, v2, y2, d.noise_um,
+                             reference) is None
 
 
 def test_a_resonance_near_the_sample_rate_is_told_from_a_delay_by_its_excitation():
@@ -1249,7 +1249,7 @@ def test_folds_leave_out_samples_where_an_operator_leaves_the_states_training_sh
 
 
 def test_the_median_score_where_states_were_seen_leaves_out_blocks_that_score_a_handful_of_samples():
-    from pysim.diagnosis.scoring import MIN_SCORED_PER_BLOCK, _blocked_score, _well_scored
+    from pysim.diagnosis.scoring import MIN_SCORED_PER_BLOCK, blocked_score, well_scored
 
     n = 1000
     y = np.zeros(4 * n)
@@ -1258,15 +1258,15 @@ def test_the_median_score_where_states_were_seen_leaves_out_blocks_that_score_a_
     blocks = np.array_split(rows, 4)
     few = blocks[3][:MIN_SCORED_PER_BLOCK - 1]
     folds = [(np.setdiff1d(rows, b), s) for b, s in zip(blocks, blocks[:3] + [few])]
-    assert _blocked_score(y, prediction, folds) == ([1.0, 4.0, 9.0, 100.0], pytest.approx(6.5))
-    kept = _well_scored(folds)
+    assert blocked_score(y, prediction, folds) == ([1.0, 4.0, 9.0, 100.0], pytest.approx(6.5))
+    kept = well_scored(folds)
     assert [s.size for _, s in kept] == [n, n, n]
-    assert _blocked_score(y, prediction, kept)[1] == pytest.approx(4.0)   # the median of 1, 4 and 9
+    assert blocked_score(y, prediction, kept)[1] == pytest.approx(4.0)   # the median of 1, 4 and 9
     enough = blocks[3][:MIN_SCORED_PER_BLOCK]
-    assert len(_well_scored(folds[:3] + [(folds[3][0], enough)])) == 4
+    assert len(well_scored(folds[:3] + [(folds[3][0], enough)])) == 4
     # fewer than two blocks of that many samples prove nothing: no score where states were seen
-    assert _well_scored([(t, s[:10]) for t, s in folds]) is None
-    assert _well_scored(folds[:1] + [(t, s[:10]) for t, s in folds[1:]]) is None
+    assert well_scored([(t, s[:10]) for t, s in folds]) is None
+    assert well_scored(folds[:1] + [(t, s[:10]) for t, s in folds[1:]]) is None
 
 
 def test_a_cause_whose_advantage_vanishes_where_the_operator_states_were_seen_is_not_named():

@@ -341,7 +341,7 @@ class CoSimulation:
             u[0] = v
             t.value = tk
             if (set_real(comp, vr_in, one, u) | get_real(comp, vr_out, one, y) | do_step(comp, t, h, true)) > 1:
-                raise _failure(p, u, y, tk, "voltage", v)
+                raise step_failure(p, u, y, tk, "voltage", v)
             out[k] = y[0]
         return np.array(out)
 
@@ -359,9 +359,9 @@ class CoSimulation:
             r[0] = x
             t.value = tk
             if (q_set(qc, q_in, one, r) | q_get(qc, q_out, one, v) | q_step(qc, t, h, true)) > 1:
-                raise _failure(q, r, v, tk, "reference", x)
+                raise step_failure(q, r, v, tk, "reference", x)
             if (p_set(pc, p_in, one, v) | p_get(pc, p_out, one, y) | p_step(pc, t, h, true)) > 1:
-                raise _failure(p, v, y, tk, "voltage", v[0])
+                raise step_failure(p, v, y, tk, "voltage", v[0])
             volts[k] = v[0]
             out[k] = y[0]
         return np.array(volts), np.array(out)
@@ -417,7 +417,7 @@ def _callbacks(role: str):
     return _LOG["callbacks"], name, messages
 
 
-def _failure(unit: FMUUnit, u, y, t: float, what: str, value: float) -> RuntimeError:
+def step_failure(unit: FMUUnit, u, y, t: float, what: str, value: float) -> RuntimeError:
     """The error for a failed step.  fmi2SetReal and fmi2GetReal have no side
     effect worth protecting, so they are repeated to find which call failed;
     if both pass, it was fmi2DoStep (its status was OR-ed with theirs)."""

@@ -63,7 +63,7 @@ import numpy as np
 
 from pysim.core.rig import Amplifier, Converter, PIController, SensorNoise
 from pysim.cosim.errors import CoSimulationError
-from pysim.cosim.harness import INVERSE_PORTS, PLANT_PORTS, CoSimResult, FMUUnit, NominalDrive, _failure
+from pysim.cosim.harness import INVERSE_PORTS, PLANT_PORTS, CoSimResult, FMUUnit, NominalDrive, step_failure
 from pysim.cosim.stage import as_siso, discretise
 
 PATHS = ("uncompensated", "compensated", "feedback", "feedback+compensated")
@@ -272,7 +272,7 @@ class RigSimulation:
             t.value = k * self.step_s
             if (p.set_real(p.component, p.input_vr, one, u) | p.get_real(p.component, p.output_vr, one, y)
                     | p.do_step(p.component, t, h, true)) > 1:
-                raise _failure(p, u, y, t.value, "voltage", v)
+                raise step_failure(p, u, y, t.value, "voltage", v)
             out[k] = y[0]
         return out
 
@@ -363,7 +363,7 @@ class RigSimulation:
             if compensated:
                 q_u[0] = c_ahead
                 if (q_set(qc, q_in, one, q_u) | q_step(qc, t, h, true) | q_get(qc, q_out, one, q_y)) > 1:
-                    raise _failure(q, q_u, q_y, t.value, "reference", c_ahead)
+                    raise step_failure(q, q_u, q_y, t.value, "reference", c_ahead)
                 ff_next = q_y[0]
             else:
                 ff_next = 0.0
@@ -381,7 +381,7 @@ class RigSimulation:
             # read after the step: the output at t + h (for an actuator with output stages the
             # next sample; for the hysteresis alone the same value as before the step)
             if (p_set(pc, p_in, one, p_u) | p_step(pc, t, h, true) | p_get(pc, p_out, one, p_y)) > 1:
-                raise _failure(p, p_u, p_y, t.value, "voltage", c_amp)
+                raise step_failure(p, p_u, p_y, t.value, "voltage", c_amp)
             act_next = p_y[0]
             # stage: ZOH step with the held actuator displacement
             if rows:

@@ -15,7 +15,7 @@ Procedure (``diagnose``):
    slew_limit) is built on the better of the two rate-independent models (a
    stage whose parameters all shape the response -- a delay, a lag or
    resonance, an input low-pass, a slew limit -- also on the other one, and
-   keeps the better out of sample: :func:`_candidates_on_either_base`); its
+   keeps the better out of sample: :func:`candidates_on_either_base`); its
    shape parameters are searched on the whole record, its linear parameters
    refitted on every training part.  Every extension is physically admissible
    (non-negative creep modes, stable unit-gain dynamics, delay ≥ 0, a smooth
@@ -70,7 +70,7 @@ Procedure (``diagnose``):
    σ² too, the second record is diagnosed on its own, and the cross-validated
    cause stands if it names it (:func:`_second_record_alone`).  Look-alike
    dynamics (``DYNAMICS``) are finally told apart by how each structure fits
-   both records in sample (:func:`_structure_on_both`).  A second record whose input covers the
+   both records in sample (:func:`structure_on_both`).  A second record whose input covers the
    first's range and reaches beyond it by more than ``WIDER_RANGE_SHARE`` of the range both span
    (:func:`range_beyond_first`) is the one fitted, the first scored, when it names an effect: fitted
    on the narrower record every model would extrapolate where nothing scores it.  Without a second record, a split of
@@ -91,21 +91,21 @@ import numpy as np
 from pysim.diagnosis.candidates import EFFECTS, CandidateFitter
 from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.excitation import separating_excitation
-from pysim.diagnosis.folds import (DEFAULT_TRAIN_FRACTION, Split, WIDER_RANGE_SHARE, _record_folds,
-                                   _settle_samples, character_split, make_folds, range_beyond_first,
+from pysim.diagnosis.folds import (DEFAULT_TRAIN_FRACTION, Split, WIDER_RANGE_SHARE, record_folds,
+                                   settle_samples, character_split, make_folds, range_beyond_first,
                                    split_record)
 from pysim.diagnosis.path_memory import path_memory
 from pysim.diagnosis.residuals import noise_sigma, quantum, residual_statistics
 from pysim.diagnosis.rules import (MIN_GAIN_PCT, NEAR_NOISE_FRACTION, NOISE_FRACTION, TIE_FRACTION,
-                                   UNEXPLAINED_LEVEL, _rms_gain_pct, _shape_not_unexplained, advantage_holds,
+                                   UNEXPLAINED_LEVEL, rms_gain_pct, shape_not_unexplained, advantage_holds,
                                    decide, removal_holds)
-from pysim.diagnosis.scoring import (Evaluation, _blocked_score, _candidates_on_either_base,
-                                     _rate_independent_models, _runner, _well_scored)
-from pysim.diagnosis.second_record import (_RolesStand, _best_fitted_on_both_records, _best_predictor_of_set,
-                                           _both_records_sentence, _delivering, _dynamics_where_they_show,
-                                           _fitted_on_both_records, _predicts_second_record_better,
-                                           _second_record_fitter, _structure_on_both,
-                                           _told_apart_by_second_record, validate_on_second_record)
+from pysim.diagnosis.scoring import (Evaluation, blocked_score, candidates_on_either_base,
+                                     rate_independent_models, cv_runner, well_scored)
+from pysim.diagnosis.second_record import (RolesStand, best_fitted_on_both_records, best_predictor_of_set,
+                                           both_records_sentence, delivering_verdict, dynamics_where_they_show,
+                                           fit_on_both_records, predicts_second_record_better,
+                                           second_record_fitter, structure_on_both,
+                                           told_apart_by_second_record, validate_on_second_record)
 from pysim.diagnosis.shape import correct_for_shape
 from pysim.diagnosis.steps import shown_by_steps
 from pysim.diagnosis.validation import score_on_record
@@ -494,7 +494,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     except IdentificationError as exc:
         raise DiagnosisError(f"{where}{exc}") from exc
     fitter.period_samples = split.period_samples
-    folds, mask = _record_folds(v)
+    folds, mask = record_folds(v)
     if np.count_nonzero(mask) < 100:
         raise DiagnosisError(f"{where}the input of every block leaves the range of the others: no sample can be "
                              "scored out of sample; record the range more than once")
@@ -504,7 +504,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     # baseline family is fitted on the same input and thresholds): decided before any cross-validation
     unidentified = fitter.baseline_result.unidentified_reason
     if unidentified and _swap_reason:
-        raise _RolesStand()
+        raise RolesStand()
 
     def in_turn(reason):
         """The same diagnosis with the records' roles swapped, or None when the given order stands."""
@@ -513,7 +513,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                               train_fraction=train_fraction, validate=given, name=name,
                               source=validate_source or "second record", validate_source=source or "first record",
                               _swap_reason=reason)
-        except (_RolesStand, DiagnosisError):
+        except (RolesStand, DiagnosisError):
             return None
         _note_resampling(turned.validation, resampled)
         return turned
@@ -540,10 +540,10 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         if swapped is not None and swapped.cause in EFFECTS:
             return swapped
 
-    run = _runner(fitter, folds, character, y, mask)
+    run = cv_runner(fitter, folds, character, y, mask)
 
     try:
-        baseline, richer = _rate_independent_models(fitter, run, folds, character, y, mask)
+        baseline, richer = rate_independent_models(fitter, run, folds, character, y, mask)
     except IdentificationError as exc:
         raise DiagnosisError(f"{where}{exc}") from exc
     rate_independent = richer if richer.mse_um2 < baseline.mse_um2 else baseline
@@ -558,7 +558,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 option.validation = score_on_record(option.fit, v2, y2, T, train_range, train_voltage_V=v)
             return option.mse_um2 * option.validation["mse_um2"]
 
-    candidates = _candidates_on_either_base(fitter, run, baseline, richer, EFFECTS, creep_score)
+    candidates = candidates_on_either_base(fitter, run, baseline, richer, EFFECTS, creep_score)
 
     step = quantum(y)
     shaped_on_second = []
@@ -569,8 +569,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         except IdentificationError:
             second_unidentified = ""
         if second_unidentified:
-            shaped_on_second = _dynamics_where_they_show(fitter, run, rate_independent, candidates, v, v2, y2,
-                                                         noise_sigma(y - baseline.prediction_um, step))
+            shaped_on_second = dynamics_where_they_show(fitter, run, rate_independent, candidates, v, v2, y2,
+                                                        noise_sigma(y - baseline.prediction_um, step))
 
     noise = min(noise_sigma(y - ev.prediction_um, step)
                 for ev in [baseline, richer, *candidates.values()])
@@ -601,21 +601,21 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     # peak where no other block does leave operators in such states, every rate-independent model
     # extrapolates there, and a slow candidate that draws the same trend could be named for it
     # (only where two blocks or more score MIN_SCORED_PER_BLOCK such samples: fewer prove nothing)
-    seen_folds = _well_scored(make_folds(v, settle=_settle_samples(v.size),
-                                         operator_outputs_V=fitter.operator_outputs_V()))
+    seen_folds = well_scored(make_folds(v, settle=settle_samples(v.size),
+                                        operator_outputs_V=fitter.operator_outputs_V()))
     removed_seen = None
     if seen_folds is not None:
 
         def where_seen(ev):
-            return _blocked_score(y, ev.cv_prediction_um, seen_folds)[1]
+            return blocked_score(y, ev.cv_prediction_um, seen_folds)[1]
 
         reference_seen = min(where_seen(baseline), where_seen(richer))
         removed_seen = {c: reference_seen - where_seen(ev) for c, ev in candidates.items()}
         for c, ev in candidates.items():
             ev.removed_where_states_seen_sigma2 = removed_seen[c] / noise**2 if noise > 0 else 0.0
-    verdict = _shape_not_unexplained(decide({c: ev.mse_um2 for c, ev in candidates.items()}, baseline.mse_um2,
-                                            richer.mse_um2, noise, complexity, consistent, outranks,
-                                            removed_seen), first_shape)
+    verdict = shape_not_unexplained(decide({c: ev.mse_um2 for c, ev in candidates.items()}, baseline.mse_um2,
+                                           richer.mse_um2, noise, complexity, consistent, outranks,
+                                           removed_seen), first_shape)
     for c, ev in candidates.items():
         ev.significant = verdict["significant"][c]
     if unidentified and verdict["cause"] in ("unexplained", "drift"):
@@ -638,7 +638,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     validation = None
     if validate is not None:
         # the second record's own fitter: identified at most once, only when a rule fits that record itself
-        second_fitter = functools.cache(lambda: _second_record_fitter(fitter, v2, y2))
+        second_fitter = functools.cache(lambda: second_record_fitter(fitter, v2, y2))
         validation, v_verdict = validate_on_second_record(fitter, baseline, richer, candidates, v, v2, y2,
                                                           complexity, cv_verdict, noise, outranks, second_fitter)
         validation["source"] = validate_source
@@ -661,7 +661,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
             tied = (verdict["causes"] if len(verdict["causes"]) > 1 else
                     cv_verdict["causes"] if len(cv_verdict["causes"]) > 1 and verdict["cause"] in cv_verdict["causes"]
                     else ())
-            told = _told_apart_by_second_record(fitter, tied, v2, y2, second_fitter) if tied else None
+            told = told_apart_by_second_record(fitter, tied, v2, y2, second_fitter) if tied else None
             if told is not None:
                 kept, on_second = told
                 if verdict["cause"] in kept:
@@ -677,9 +677,9 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 validation.update(cause=kept[0], causes=list(kept), verdict_by="second record",
                                   remark=validation["remark"] + remark, note=validation["note"] + remark)
             # look-alike dynamics are told apart by how each structure fits both records in sample
-            structure = _structure_on_both(fitter, candidates, verdict["causes"], y, v2, y2, noise,
-                                           min(baseline.validation["mse_um2"], richer.validation["mse_um2"]),
-                                           second_fitter)
+            structure = structure_on_both(fitter, candidates, verdict["causes"], y, v2, y2, noise,
+                                          min(baseline.validation["mse_um2"], richer.validation["mse_um2"]),
+                                          second_fitter)
             if structure is not None:
                 winner, errors = structure
                 named = ", ".join(verdict["causes"])
@@ -698,7 +698,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
 
     named_verdict, delivery_remark = verdict, ""   # the why tells how the causes were named; the delivery is a remark
     if validation is not None and len(verdict["causes"]) > 1:
-        delivered = _best_predictor_of_set(candidates, tuple(verdict["causes"]), y2, validation["noise_um"])
+        delivered = best_predictor_of_set(candidates, tuple(verdict["causes"]), y2, validation["noise_um"])
         if delivered is not None:
             member, errors = delivered
             first = verdict["causes"][0]
@@ -706,16 +706,16 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 f"; of the set, {member}'s model predicts the second record best ({errors[member]:.3g} σ² against "
                 f"{errors[first]:.3g} σ² for {first}'s, by more than the noise can make), so it is the model "
                 "delivered until the excitation tells the set apart")
-            verdict = _delivering(verdict, validation, member, delivery_remark, delivered_sigma2=errors)
+            verdict = delivering_verdict(verdict, validation, member, delivery_remark, delivered_sigma2=errors)
     joint_first = {}     # cause -> its fit on both records' median held-out block of the first record (µm²)
     if validation is not None and len(verdict["causes"]) > 1 and not unidentified and not shape:
-        found = _best_fitted_on_both_records(fitter, candidates, tuple(verdict["causes"]), v2, y2, T, folds,
-                                             noise, validation["noise_um"], joint_first)
+        found = best_fitted_on_both_records(fitter, candidates, tuple(verdict["causes"]), v2, y2, T, folds,
+                                            noise, validation["noise_um"], joint_first)
         if found is not None:
-            sentence = ("; but" if delivery_remark else ";") + _both_records_sentence(*found, verdict["causes"][0])
+            sentence = ("; but" if delivery_remark else ";") + both_records_sentence(*found, verdict["causes"][0])
             delivery_remark += sentence
-            verdict = _delivering(verdict, validation, found[0], sentence, delivered_by="both records",
-                                  delivered_both_sigma2={c: list(e) for c, e in found[1].items()})
+            verdict = delivering_verdict(verdict, validation, found[0], sentence, delivered_by="both records",
+                                         delivered_both_sigma2={c: list(e) for c, e in found[1].items()})
     cause, causes = verdict["cause"], verdict["causes"]
     held = split.heldout
     residual = y - baseline.prediction_um
@@ -730,7 +730,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     # the plain fit does (operators the first record barely moves, a range it never reaches): one that
     # predicts the second record worse is not a better model of the actuator, so it is not delivered
     # (the cause it names still stands)
-    misleads = (_predicts_second_record_better(extended, baseline, y2, validation["noise_um"])
+    misleads = (predicts_second_record_better(extended, baseline, y2, validation["noise_um"])
                 if validation is not None and extended is not plain else None)
     if misleads is not None:
         withheld_sentence = (
@@ -748,7 +748,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         # the delivered model's hysteresis and effect parameters are refitted on both records, when
         # that predicts the first record's held-out blocks no worse (not after a shape correction:
         # its scores are of corrected predictions)
-        joint = _fitted_on_both_records(fitter, extended, v2, y2, T, folds, noise, joint_first.get(extended.cause))
+        joint = fit_on_both_records(fitter, extended, v2, y2, T, folds, noise, joint_first.get(extended.cause))
         if joint is not None:
             fit, first_rms_pct, second_rms_pct = joint
             both_sentence = (
@@ -826,7 +826,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
 
 def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -> str:
     if verdict.get("structure") and validation is not None:
-        # named by how the structures fit both records (_structure_on_both); the remark says by how much
+        # named by how the structures fit both records (structure_on_both); the remark says by how much
         cause, table = verdict["cause"], validation["table"]
         return (f"{cause} lowers the error significantly on the record fitted (cross-validated "
                 f"{baseline.rms_pct:.3g} % → {candidates[cause].rms_pct:.3g} % of range) and the second record's "
@@ -891,7 +891,7 @@ def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -
             best2 = min(scored, key=lambda ev: ev.validation["mse_um2"])
             ref2 = min(baseline.validation["mse_um2"], richer.validation["mse_um2"])
             noise2 = validation["noise_um"]
-            gain2 = _rms_gain_pct(best2.validation["mse_um2"], ref2)
+            gain2 = rms_gain_pct(best2.validation["mse_um2"], ref2)
             first = ""
             if cv_verdict is not None and cv_verdict.get("cause") in EFFECTS:
                 named = candidates[cv_verdict["cause"]]

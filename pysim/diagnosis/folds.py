@@ -7,7 +7,7 @@ its input stays inside the range, and moves by no larger a step, than the
 training blocks showed), a split of different character (:func:`character_split`:
 fitted on the slowest blocks, scored on the fastest), the responses to steps
 into holds (:func:`step_windows`) and the samples at the start that output
-stages, starting at rest, may not yet follow (:func:`_settle_samples`).
+stages, starting at rest, may not yet follow (:func:`settle_samples`).
 Nothing here fits a model: these are index sets of the voltage alone.
 """
 from __future__ import annotations
@@ -265,7 +265,7 @@ def character_split(voltage_V, sample_period_s: float, n_blocks: int = N_FOLDS):
                            f"scored on the others ({fast:.4g} V/s)")
 
 
-def _settle_samples(n_samples: int) -> int:
+def settle_samples(n_samples: int) -> int:
     """Samples at the start of a record (and after an unseen step) left to settle."""
     return int(max(SETTLE_MIN_SAMPLES, SETTLE_FRACTION * n_samples))
 
@@ -306,18 +306,18 @@ def step_windows(voltage_V, window: int) -> list:
     return windows
 
 
-def _record_folds(voltage_V):
+def record_folds(voltage_V):
     """The blocked cross-validation folds of a record (its start left to settle) and the mask of
     the samples they score."""
     v = np.asarray(voltage_V, dtype=float)
-    folds = make_folds(v, settle=_settle_samples(v.size))
+    folds = make_folds(v, settle=settle_samples(v.size))
     mask = np.zeros(v.size, dtype=bool)
     for _, scored in folds:
         mask[scored] = True
     return folds, mask
 
 
-def _step_folds(windows, settle: int, n_samples: int) -> list:
+def step_folds(windows, settle: int, n_samples: int) -> list:
     """The step ``windows`` as cross-validation folds: at most ``N_FOLDS`` groups (round robin), each
     scored on its windows and trained on every other sample after ``settle``."""
     folds = []
@@ -331,7 +331,7 @@ def _step_folds(windows, settle: int, n_samples: int) -> list:
     return folds
 
 
-def _contiguous_blocks(n_samples: int, n_blocks: int = N_FOLDS) -> list:
+def contiguous_blocks(n_samples: int, n_blocks: int = N_FOLDS) -> list:
     """Each block predicted from all the others (for a second record's path correction)."""
     blocks = np.array_split(np.arange(n_samples), n_blocks)
     return [(np.concatenate([b for j, b in enumerate(blocks) if j != i]), block) for i, block in enumerate(blocks)]

@@ -110,7 +110,7 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
     significant = {}
     for cause, value in mse.items():
         removed = ref - value
-        gain = _rms_gain_pct(value, ref)
+        gain = rms_gain_pct(value, ref)
         near_noise = bool(consistent and consistent.get(cause) and removed >= NEAR_NOISE_FRACTION * s2
                           and removed >= 0.5 * excess)
         significant[cause] = bool((removed >= NOISE_FRACTION * s2 and gain >= MIN_GAIN_PCT) or near_noise)
@@ -150,19 +150,19 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
                 "text": f"the best candidate, {best}, removes only {100 * share:.0f} % of the mean-square "
                         f"error above the noise ({excess / s2:.3g} σ²): most of the residual is outside "
                         f"the catalogue{_OUTSIDE}"}
-    winner = _simplest_unless_outranked(ties, best, complexity, mse, outranks)
+    winner = simplest_unless_outranked(ties, best, complexity, mse, outranks)
     causes = tuple([winner] + [c for c in ties if c != winner])
     return {"cause": winner, "causes": causes, "significant": significant, "best": best,
             "explained_share": share, "text": "", "not_where_states_seen": vetoed}
 
 
-def _rms_gain_pct(mse_um2: float, reference_mse_um2: float) -> float:
+def rms_gain_pct(mse_um2: float, reference_mse_um2: float) -> float:
     """How much lower (%) the RMS error of a model with mean-square error ``mse_um2`` is than the
     reference's: the gain :func:`decide` requires to reach ``MIN_GAIN_PCT``, and the text quotes."""
     return 100.0 * (1.0 - math.sqrt(mse_um2 / reference_mse_um2)) if reference_mse_um2 > 0 else 0.0
 
 
-def _simplest_unless_outranked(ties, best, complexity: dict, error: dict, outranks=None) -> str:
+def simplest_unless_outranked(ties, best, complexity: dict, error: dict, outranks=None) -> str:
     """Occam's razor among ``ties``: the fewest effect parameters (then the lower ``error``) --
     unless ``outranks(best, simplest)``: the simpler one is only as good within the margin, and the
     data say it is not."""
@@ -174,7 +174,7 @@ def _simplest_unless_outranked(ties, best, complexity: dict, error: dict, outran
     return winner
 
 
-def _squared_error_gain(y, reference_um, candidate_um) -> np.ndarray:
+def squared_error_gain(y, reference_um, candidate_um) -> np.ndarray:
     """Per sample, the reference's squared error minus the candidate's, where both predict (not NaN)."""
     y, a, b = (np.asarray(x, dtype=float) for x in (y, reference_um, candidate_um))
     both = np.isfinite(a) & np.isfinite(b)
@@ -200,7 +200,7 @@ def removal_holds(y, reference_um, candidate_um, n_batches: int = NEAR_NOISE_BAT
     >>> removal_holds(y, np.sin(np.arange(4000) / 50), np.zeros(4000))
     False
     """
-    d = _squared_error_gain(y, reference_um, candidate_um)
+    d = squared_error_gain(y, reference_um, candidate_um)
     if d.size < 10 * n_batches:
         return False
     means = np.array([chunk.mean() for chunk in np.array_split(d, n_batches)])
@@ -230,7 +230,7 @@ def advantage_holds(y, reference_um, candidate_um, t_min: float = NEAR_NOISE_T) 
     >>> advantage_holds(y, burst, np.zeros(k.size))
     False
     """
-    d = _squared_error_gain(y, reference_um, candidate_um)
+    d = squared_error_gain(y, reference_um, candidate_um)
     n = d.size
     if n < 100:
         return False
@@ -245,7 +245,7 @@ def advantage_holds(y, reference_um, candidate_um, t_min: float = NEAR_NOISE_T) 
     return bool(d.mean() > t_min * math.sqrt(long_run / n))
 
 
-def _shape_not_unexplained(verdict: dict, shape: dict) -> dict:
+def shape_not_unexplained(verdict: dict, shape: dict) -> dict:
     """``none`` instead of ``unexplained`` when no candidate is significant and the record's residual
     is mostly a hysteresis shape outside the model class: the input's path alone predicted at least as
     much of it as is left above the noise (``shape``: :func:`path_corrected`'s evidence, {} when none).

@@ -5,7 +5,7 @@ is refitted on the training blocks of each fold and scored on the held-out
 samples (:func:`_evaluate`, which gives an :class:`Evaluation`); the score is
 the median over the blocks of the held-out mean-square error.
 :func:`fit_candidates` builds every cause of the catalogue on a rate-independent
-part, and :func:`_candidates_on_either_base` fits the stages whose parameters
+part, and :func:`candidates_on_either_base` fits the stages whose parameters
 all shape the response on both rate-independent parts and keeps the better
 out of sample.
 """
@@ -19,7 +19,7 @@ import numpy as np
 from pysim.core.metrics import error_measures
 from pysim.diagnosis.candidates import CandidateFit, CandidateFitter, Family
 from pysim.diagnosis.errors import DiagnosisError
-from pysim.diagnosis.rules import DYNAMICS, _squared_error_gain
+from pysim.diagnosis.rules import DYNAMICS, squared_error_gain
 from pysim.identification.identify import IdentificationError
 
 __all__ = ["MIN_SCORED_PER_BLOCK", "Evaluation", "fit_candidates"]
@@ -103,7 +103,7 @@ class Evaluation:
         return self.rms_um**2
 
 
-def _cross_validate(fitter: CandidateFitter, family: Family, fit: CandidateFit, folds, y):
+def cross_validate(fitter: CandidateFitter, family: Family, fit: CandidateFit, folds, y):
     """Out-of-fold prediction of ``family`` (NaN where not scored)."""
     out = np.full(y.size, np.nan)
     for train, scored in folds:
@@ -118,7 +118,7 @@ def _cross_validate(fitter: CandidateFitter, family: Family, fit: CandidateFit, 
     return out
 
 
-def _blocked_score(y, prediction, folds) -> tuple:
+def blocked_score(y, prediction, folds) -> tuple:
     """``(per_block, score)``: the held-out mean-square error of every block (µm²) and their median,
     the score -- one block whose input the others never showed (a state they cannot predict) does
     not decide alone."""
@@ -126,7 +126,7 @@ def _blocked_score(y, prediction, folds) -> tuple:
     return per_block, float(np.median(per_block))
 
 
-def _well_scored(folds, min_scored: int = MIN_SCORED_PER_BLOCK):
+def well_scored(folds, min_scored: int = MIN_SCORED_PER_BLOCK):
     """The folds whose held-out block scores at least ``min_scored`` samples, when two or more do
     (over a handful of samples chance decides a block's error); None otherwise."""
     kept = [(train, scored) for train, scored in folds if scored.size >= min_scored]
@@ -134,9 +134,9 @@ def _well_scored(folds, min_scored: int = MIN_SCORED_PER_BLOCK):
 
 
 def _evaluate(fitter, family, fit, folds, character, y, mask) -> Evaluation:
-    cv = _cross_validate(fitter, family, fit, folds, y)
+    cv = cross_validate(fitter, family, fit, folds, y)
     errors = error_measures(y[mask], cv[mask])
-    per_block, score = _blocked_score(y, cv, folds)
+    per_block, score = blocked_score(y, cv, folds)
     rms_um = math.sqrt(score)
     span = float(np.ptp(y[mask]))
     ev = Evaluation(fit, 100.0 * rms_um / span, errors["max_error_pct"], rms_um,
@@ -155,7 +155,7 @@ def _evaluate(fitter, family, fit, folds, character, y, mask) -> Evaluation:
     return ev
 
 
-def _rate_independent_models(fitter: CandidateFitter, run, folds, character, y, mask) -> tuple:
+def rate_independent_models(fitter: CandidateFitter, run, folds, character, y, mask) -> tuple:
     """``(baseline, richer)`` evaluated on the fitter's record; raises IdentificationError when
     the record cannot support the baseline."""
     baseline = run(fitter.base("baseline"))
@@ -167,7 +167,7 @@ def _rate_independent_models(fitter: CandidateFitter, run, folds, character, y, 
     return baseline, richer
 
 
-def _runner(fitter: CandidateFitter, folds, character, y, mask):
+def cv_runner(fitter: CandidateFitter, folds, character, y, mask):
     """``run(family)``: fit ``family`` on the fitter's record (its initial state estimated with the
     effect's parameters, for an extension) and cross-validate it over ``folds``."""
     def run(family):
@@ -225,7 +225,7 @@ def fit_candidates(fitter: CandidateFitter, run, base_family: Family, causes, cr
     return candidates
 
 
-def _candidates_on_either_base(fitter: CandidateFitter, run, baseline, richer, causes, creep_score=None) -> dict:
+def candidates_on_either_base(fitter: CandidateFitter, run, baseline, richer, causes, creep_score=None) -> dict:
     """Cause → :class:`Evaluation` of its extension of the better of the rate-independent models
     ``baseline`` (n operators) and ``richer`` (2n); a stage in ``DYNAMICS`` also of the other one,
     keeping the better of the two out of sample.
@@ -258,7 +258,7 @@ def _candidates_on_either_base(fitter: CandidateFitter, run, baseline, richer, c
         # to another input (independent seed 19: a delay on 20 operators leaves 3.98 σ² in the median
         # block against 6.05 on 10, but 2·10⁵ σ² on average against 1.6·10³, and its model predicts
         # a third record at 1.09× the plain fit's RMS against 0.71×)
-        if ev.mse_um2 < candidates[cause].mse_um2 and np.mean(_squared_error_gain(
+        if ev.mse_um2 < candidates[cause].mse_um2 and np.mean(squared_error_gain(
                 fitter.y, candidates[cause].cv_prediction_um, ev.cv_prediction_um)) > 0.0:
             candidates[cause] = ev
     return candidates

@@ -9,9 +9,9 @@ second record within its noise cannot confirm an effect, one whose residual
 is mostly the first record's hysteresis part failing on a new input is
 diagnosed on its own (:func:`_second_record_alone`), and look-alike dynamics
 are told apart by how each structure fits both records
-(:func:`_structure_on_both`).  The model delivered is refitted on both
+(:func:`structure_on_both`).  The model delivered is refitted on both
 records when that costs the first record's held-out blocks nothing beyond
-the noise (:func:`_fitted_on_both_records`), and an extension that predicts
+the noise (:func:`fit_on_both_records`), and an extension that predicts
 the second record worse than the plain fit is not delivered.
 """
 from __future__ import annotations
@@ -24,15 +24,15 @@ import numpy as np
 from pysim.core.metrics import error_measures
 from pysim.diagnosis.candidates import EFFECTS, CandidateFit, CandidateFitter
 from pysim.diagnosis.errors import DiagnosisError
-from pysim.diagnosis.folds import N_FOLDS, _contiguous_blocks, _record_folds, input_period
+from pysim.diagnosis.folds import N_FOLDS, contiguous_blocks, record_folds, input_period
 from pysim.diagnosis.input_stages import InputStageModel
 from pysim.diagnosis.path_memory import path_memory, path_predicted
 from pysim.diagnosis.residuals import noise_sigma, quantum
 from pysim.diagnosis.rules import (DECISIVE_SHARE, DYNAMICS, NEAR_NOISE_FRACTION, NOISE_FRACTION,
-                                   TIE_FRACTION, UNEXPLAINED_LEVEL, _shape_not_unexplained,
-                                   _simplest_unless_outranked, advantage_holds, decide, removal_holds)
-from pysim.diagnosis.scoring import (Evaluation, _blocked_score, _candidates_on_either_base,
-                                     _rate_independent_models, _runner)
+                                   TIE_FRACTION, UNEXPLAINED_LEVEL, shape_not_unexplained,
+                                   simplest_unless_outranked, advantage_holds, decide, removal_holds)
+from pysim.diagnosis.scoring import (Evaluation, blocked_score, candidates_on_either_base,
+                                     rate_independent_models, cv_runner)
 from pysim.diagnosis.shape import correct_validation_for_shape
 from pysim.diagnosis.validation import history_modes, score_on_record
 from pysim.identification.identify import IdentificationError, identify
@@ -40,7 +40,7 @@ from pysim.identification.identify import IdentificationError, identify
 __all__ = ["validate_on_second_record"]
 
 
-class _RolesStand(Exception):
+class RolesStand(Exception):
     """The second record cannot take the first one's role (it cannot identify the hysteresis)."""
 
 
@@ -71,7 +71,7 @@ def validate_on_second_record(fitter, baseline, richer, candidates, v1, v2, y2, 
     both records (``outranks(a, b)`` on the first, :func:`advantage_holds`
     on the second): a resonance near the sample rate ties with a fraction of a
     sample's delay, and predicts steps worse.  ``second`` builds the second
-    record's own fitter (:func:`_second_record_fitter`) once for every rule.
+    record's own fitter (:func:`second_record_fitter`) once for every rule.
     """
     train_range = (float(v1.min()), float(v1.max()))
 
@@ -97,9 +97,9 @@ def validate_on_second_record(fitter, baseline, richer, candidates, v1, v2, y2, 
     # shape outside the model class (a Bouc-Wen plant: a drift 0.35 σ² worse out of sample on the
     # multisine it was fitted on was named for 0.49 σ² gained on a sine)
     worse_where_fitted = {c for c, ev in candidates.items() if ev.mse_um2 > ref_cv + NOISE_FRACTION * noise1**2}
-    verdict = _shape_not_unexplained(decide({c: m for c, m in mse.items() if c not in worse_where_fitted},
-                                            baseline.validation["mse_um2"], richer.validation["mse_um2"], noise2,
-                                            complexity), second_shape)
+    verdict = shape_not_unexplained(decide({c: m for c, m in mse.items() if c not in worse_where_fitted},
+                                           baseline.validation["mse_um2"], richer.validation["mse_um2"], noise2,
+                                           complexity), second_shape)
     if verdict["cause"] in EFFECTS:
         # the second record names the cause; among the candidates significant on both records the
         # one that lowers the error most on both together wins (a second record whose input the
@@ -114,7 +114,7 @@ def validate_on_second_record(fitter, baseline, richer, candidates, v1, v2, y2, 
                 return outranks is not None and outranks(a, b) and advantage_holds(
                     y2, candidates[b].validation["prediction_um"], candidates[a].validation["prediction_um"])
 
-            winner = _simplest_unless_outranked(ties, best, complexity, score, on_both)
+            winner = simplest_unless_outranked(ties, best, complexity, score, on_both)
             ties = [winner] + [c for c in ties if c != winner]
             verdict = dict(verdict, cause=winner, causes=tuple(ties), best=best)
     standing, by = "", "second record"
@@ -267,7 +267,7 @@ def _not_contradicted(cv_verdict, mse, ref_val, noise2, raised=None):
     return [c for c in cv_verdict["causes"] if c not in contradicted], contradicted
 
 
-def _second_record_fitter(fitter: CandidateFitter, v2, y2) -> CandidateFitter | None:
+def second_record_fitter(fitter: CandidateFitter, v2, y2) -> CandidateFitter | None:
     """The second record's :class:`CandidateFitter` with the first record's settings (its baseline and
     richer rate-independent models identified there), or None when that record cannot be identified.
     ``diagnose`` builds it at most once per second record and hands it to every rule that fits the
@@ -283,13 +283,13 @@ def _second_record_fitter(fitter: CandidateFitter, v2, y2) -> CandidateFitter | 
 
 def _second_or_built(second, fitter: CandidateFitter, v2, y2) -> CandidateFitter | None:
     """``second()`` (the cached builder ``diagnose`` passes), or the second record's fitter built now."""
-    return second() if second is not None else _second_record_fitter(fitter, v2, y2)
+    return second() if second is not None else second_record_fitter(fitter, v2, y2)
 
 
 def _on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes, v2, y2, second=None):
     """The causes' effects, as the first record fitted them, put on the second record's own richer
     rate-independent model, its linear parameters (and initial state) fitted there (``second``: the
-    builder of the second record's fitter, :func:`_second_record_fitter`).
+    builder of the second record's fitter, :func:`second_record_fitter`).
 
     Returns ``(own_mse_um2, noise_um, {cause: prediction_um})``: the second
     record's own rate-independent fit's mean-square error, its noise and each
@@ -369,7 +369,7 @@ def _joint_held_out_first(fitter: CandidateFitter, setting, v2, folds) -> float:
         if block.size:
             held_out[block] = fitter.fit_jointly(family, v2, y2_corrected, state2, rows=train,
                                                  **settings).prediction_um[block]
-    return _blocked_score(fitter.y, held_out, folds)[1]
+    return blocked_score(fitter.y, held_out, folds)[1]
 
 
 def _joint_held_out_second(fitter: CandidateFitter, setting, v2, n_blocks: int = N_FOLDS) -> float:
@@ -387,7 +387,7 @@ def _joint_held_out_second(fitter: CandidateFitter, setting, v2, n_blocks: int =
     return float(np.median(errors)) if errors else float("nan")
 
 
-def _fitted_on_both_records(fitter: CandidateFitter, extended: Evaluation, v2, y2, sample_period_s: float,
+def fit_on_both_records(fitter: CandidateFitter, extended: Evaluation, v2, y2, sample_period_s: float,
                            folds, noise_um: float, held_out_first_um2: float = None):
     """``(fit, first_rms_pct, second_rms_pct)``: ``extended``'s family with its linear parameters
     fitted on the first record and the second together (:meth:`CandidateFitter.fit_jointly`), and
@@ -400,7 +400,7 @@ def _fitted_on_both_records(fitter: CandidateFitter, extended: Evaluation, v2, y
     162 and 258, whose third records it then predicted 3.6 and 11 times better than the fit on the
     first record alone); one whose shape parameters do not carry to the second record costs them
     far more (1.46 σ² on seed 1).  ``held_out_first_um2``: that median block when it is known
-    already (:func:`_best_fitted_on_both_records` computed it for a set's members).
+    already (:func:`best_fitted_on_both_records` computed it for a set's members).
 
     The second record enters as its scoring left it: the operator state estimated there, the
     samples inside the first record's range, the displacement divided by the sensor gain found
@@ -429,24 +429,24 @@ def _fitted_on_both_records(fitter: CandidateFitter, extended: Evaluation, v2, y
     return fit, first, second["rms_pct"]
 
 
-def _best_fitted_on_both_records(fitter: CandidateFitter, candidates: dict, causes, v2, y2,
-                                 sample_period_s: float, folds, noise1_um: float, noise2_um: float,
-                                 joint_first: dict = None):
+def best_fitted_on_both_records(fitter: CandidateFitter, candidates: dict, causes, v2, y2,
+                                sample_period_s: float, folds, noise1_um: float, noise2_um: float,
+                                joint_first: dict = None):
     """The member of a named set whose structure, fitted on both records, predicts held-out blocks
     of both best: better than the member delivered so far (``causes[0]``) by at least
     ``NEAR_NOISE_FRACTION`` σ² in the median held-out block of *each* record.  None when no
     member does, or when the member delivered so far cannot be fitted on both.
 
-    Each member is fitted on both records as :func:`_fitted_on_both_records` fits the model
+    Each member is fitted on both records as :func:`fit_on_both_records` fits the model
     delivered; the first record's blocks are the cross-validation's ``folds`` (the whole second
     record in every training part), the second record's five contiguous blocks of its scored
     samples (the whole first record in every training part).  The scores of models fitted on the
-    first record alone that choose the member delivered so far (:func:`_best_predictor_of_set`)
+    first record alone that choose the member delivered so far (:func:`best_predictor_of_set`)
     compare how each structure's hysteresis part, fitted with it, carries to the second input;
     these compare the structures with the hysteresis fitted on both inputs, which is the model
     then delivered.  Only a member whose fit on both records keeps the first record's held-out
     blocks within ``NEAR_NOISE_FRACTION`` σ² of its fit on the first alone qualifies (the check
-    :func:`_fitted_on_both_records` makes before delivering such a fit).  On the third
+    :func:`fit_on_both_records` makes before delivering such a fit).  On the third
     generator's seed 12 (creep of 0.14-0.3 s on decaying triangles, named with drift), drift's
     model fitted on the first record predicted the second (a multisine that does not show the
     creep) better by 0.13 σ²; fitted on both, creep's predicted the held-out blocks better on
@@ -490,7 +490,7 @@ def _best_fitted_on_both_records(fitter: CandidateFitter, candidates: dict, caus
     return best, {c: (first[c], second[c]) for c in (current, best)}
 
 
-def _predicts_second_record_better(reference, candidate, y2, noise2_um: float):
+def predicts_second_record_better(reference, candidate, y2, noise2_um: float):
     """``(reference's, candidate's)`` mean-square errors on the second record, in σ², when the
     candidate's prediction of that record is the better one -- by at least ``NEAR_NOISE_FRACTION``
     σ² on the samples both were scored on, and by more than the noise can make
@@ -505,9 +505,9 @@ def _predicts_second_record_better(reference, candidate, y2, noise2_um: float):
     >>> measured = triangle + np.random.default_rng(3).normal(0.0, 0.02, k.size)
     >>> plain = Scored(validation={"prediction_um": triangle - 0.1, "scored_rows": k})
     >>> extended = Scored(validation={"prediction_um": triangle.copy(), "scored_rows": k[500:]})
-    >>> [round(e, 1) for e in _predicts_second_record_better(plain, extended, measured, 0.02)]
+    >>> [round(e, 1) for e in predicts_second_record_better(plain, extended, measured, 0.02)]
     [26.0, 1.0]
-    >>> _predicts_second_record_better(extended, plain, measured, 0.02) is None
+    >>> predicts_second_record_better(extended, plain, measured, 0.02) is None
     True
     """
     if reference.validation is None or candidate.validation is None:
@@ -530,7 +530,7 @@ def _predicts_second_record_better(reference, candidate, y2, noise2_um: float):
     return None
 
 
-def _delivering(verdict: dict, validation: dict, member: str, sentence: str, **evidence) -> dict:
+def delivering_verdict(verdict: dict, validation: dict, member: str, sentence: str, **evidence) -> dict:
     """The verdict with ``member`` of its set first (the model delivered); ``validation`` records it,
     the evidence and the sentence that says why."""
     validation.update(delivered=member, **evidence, remark=validation["remark"] + sentence,
@@ -538,15 +538,15 @@ def _delivering(verdict: dict, validation: dict, member: str, sentence: str, **e
     return dict(verdict, cause=member, causes=(member,) + tuple(c for c in verdict["causes"] if c != member))
 
 
-def _both_records_sentence(member: str, errors: dict, first: str) -> str:
-    """Why ``member`` replaces ``first`` as the model delivered (see :func:`_best_fitted_on_both_records`)."""
+def both_records_sentence(member: str, errors: dict, first: str) -> str:
+    """Why ``member`` replaces ``first`` as the model delivered (see :func:`best_fitted_on_both_records`)."""
     return (f" fitted on both records, {member}'s structure predicts their held-out blocks better than {first}'s "
             f"({errors[member][0]:.3g} σ² and {errors[member][1]:.3g} σ² in the median block of each, against "
             f"{errors[first][0]:.3g} σ² and {errors[first][1]:.3g} σ²), so it is the model delivered until the "
             "excitation tells the set apart")
 
 
-def _best_predictor_of_set(candidates: dict, causes, y2, noise2_um: float):
+def best_predictor_of_set(candidates: dict, causes, y2, noise2_um: float):
     """The member of a named set whose model predicts the second record best, when it does so
     beyond the noise; None when the first member's model is as good.
 
@@ -572,15 +572,15 @@ def _best_predictor_of_set(candidates: dict, causes, y2, noise2_um: float):
     >>> def member(prediction):
     ...     return SimpleNamespace(validation={"prediction_um": prediction, "scored_rows": np.arange(y2.size)})
     >>> candidates = {"delay": member(y2 + 0.05), "creep": member(y2.copy())}
-    >>> _best_predictor_of_set(candidates, ("delay", "creep"), noisy, 0.01)[0]
+    >>> best_predictor_of_set(candidates, ("delay", "creep"), noisy, 0.01)[0]
     'creep'
-    >>> _best_predictor_of_set(candidates, ("creep", "delay"), noisy, 0.01) is None
+    >>> best_predictor_of_set(candidates, ("creep", "delay"), noisy, 0.01) is None
     True
     """
     first = causes[0]
     better = {}                      # member -> (the first's σ², the member's) on the rows both scored
     for c in causes[1:]:
-        found = _predicts_second_record_better(candidates[first], candidates[c], y2, noise2_um)
+        found = predicts_second_record_better(candidates[first], candidates[c], y2, noise2_um)
         if found is not None:
             better[c] = found
     if not better:
@@ -589,8 +589,8 @@ def _best_predictor_of_set(candidates: dict, causes, y2, noise2_um: float):
     return best, {first: better[best][0], best: better[best][1]}
 
 
-def _structure_on_both(fitter: CandidateFitter, candidates: dict, causes, y1, v2, y2, noise1_um: float,
-                       reference_mse2_um2: float, second=None):
+def structure_on_both(fitter: CandidateFitter, candidates: dict, causes, y1, v2, y2, noise1_um: float,
+                      reference_mse2_um2: float, second=None):
     """The look-alike dynamics that fit *both* records better than every named cause.
 
     A lag after the hysteresis and a low-pass before it (or a delay) that
@@ -645,7 +645,7 @@ def _structure_on_both(fitter: CandidateFitter, candidates: dict, causes, y1, v2
     return min(winners, key=lambda c: sum(errors[c])), errors
 
 
-def _dynamics_where_they_show(fitter, run, reference, candidates, v1, v2, y2, noise1_um) -> list:
+def dynamics_where_they_show(fitter, run, reference, candidates, v1, v2, y2, noise1_um) -> list:
     """Search the shape of every candidate in ``DYNAMICS`` on a second record
     that cannot identify the hysteresis, with the hysteresis part fixed to the
     first record's rate-independent model (``reference``) there; refit its
@@ -706,19 +706,19 @@ def _second_record_alone(fitter: CandidateFitter, causes, v2, y2, second=None):
     cause → :class:`Evaluation` on the second record, that record's noise and
     ``holds(a, b)`` (``a``'s lower error than ``b``'s there is more than the
     noise can make) -- or None when the second record cannot be diagnosed (``second``: the builder
-    of its fitter, :func:`_second_record_fitter`).
+    of its fitter, :func:`second_record_fitter`).
     """
     second = _second_or_built(second, fitter, v2, y2)
     if second is None:
         return None
-    folds, mask = _record_folds(v2)
-    run = _runner(second, folds, None, y2, mask)
+    folds, mask = record_folds(v2)
+    run = cv_runner(second, folds, None, y2, mask)
     try:
-        baseline, richer = _rate_independent_models(second, run, folds, None, y2, mask)
+        baseline, richer = rate_independent_models(second, run, folds, None, y2, mask)
     except IdentificationError:
         return None
     reference = richer if richer.mse_um2 < baseline.mse_um2 else baseline
-    found = _candidates_on_either_base(second, run, baseline, richer, causes)
+    found = candidates_on_either_base(second, run, baseline, richer, causes)
     if not found:
         return None
     step = quantum(y2)
@@ -736,7 +736,7 @@ def _second_record_alone(fitter: CandidateFitter, causes, v2, y2, second=None):
     return verdict, found, noise, holds
 
 
-def _told_apart_by_second_record(fitter: CandidateFitter, causes, v2, y2, second=None):
+def told_apart_by_second_record(fitter: CandidateFitter, causes, v2, y2, second=None):
     """The causes of a tied set that the second record, diagnosed on its own, does not rule out.
 
     Every model in the set is fitted on the second record too -- the
@@ -802,7 +802,7 @@ def _rate_independent_excess(fitter, v2, y2, memory2=None) -> float:
     if not noise > 0:
         return math.inf
     # a shape outside the model class is no effect either: what the path alone predicts is not counted
-    shape = path_predicted(error, path_memory(v2) if memory2 is None else memory2, _contiguous_blocks(v2.size))
+    shape = path_predicted(error, path_memory(v2) if memory2 is None else memory2, contiguous_blocks(v2.size))
     corrected = np.where(np.isfinite(shape), error - shape, error)
     return float(min(np.mean(error**2), np.mean(corrected**2))) / noise**2 - 1.0
 

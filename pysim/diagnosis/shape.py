@@ -16,10 +16,10 @@ import math
 
 import numpy as np
 
-from pysim.diagnosis.folds import _contiguous_blocks
+from pysim.diagnosis.folds import contiguous_blocks
 from pysim.diagnosis.path_memory import path_predicted
 from pysim.diagnosis.rules import NOISE_FRACTION, UNEXPLAINED_LEVEL
-from pysim.diagnosis.scoring import _blocked_score
+from pysim.diagnosis.scoring import blocked_score
 
 __all__ = ["path_corrected", "correct_for_shape", "correct_validation_for_shape"]
 
@@ -105,14 +105,14 @@ def correct_for_shape(evaluations, folds, y, mask, memory, noise_um) -> dict:
     """Apply :func:`path_corrected` to the cross-validated predictions of ``evaluations`` (the first two
     are the rate-independent models); the evidence, or {} when the shape is inside the class."""
     found = path_corrected({i: ev.cv_prediction_um for i, ev in enumerate(evaluations)}, y, memory, folds,
-                           lambda _, p: _blocked_score(y, p, folds)[1], noise_um, (0, 1))
+                           lambda _, p: blocked_score(y, p, folds)[1], noise_um, (0, 1))
     if found is None:
         return {}
     corrected, evidence = found
     span = float(np.ptp(y[mask]))
     for i, ev in enumerate(evaluations):
         ev.cv_prediction_um = corrected[i]
-        ev.per_block_mse_um2, score = _blocked_score(y, corrected[i], folds)
+        ev.per_block_mse_um2, score = blocked_score(y, corrected[i], folds)
         ev.rms_um = math.sqrt(score)
         ev.rms_pct = 100.0 * ev.rms_um / span
     return evidence
@@ -129,7 +129,7 @@ def correct_validation_for_shape(evaluations, v2, y2, noise2_um, memory2) -> dic
         return float(np.mean((y2[rows[i]] - prediction[rows[i]]) ** 2))
 
     found = path_corrected({i: ev.validation["prediction_um"] for i, ev in enumerate(evaluations)}, y2,
-                           memory2, _contiguous_blocks(v2.size), score, noise2_um, (0, 1))
+                           memory2, contiguous_blocks(v2.size), score, noise2_um, (0, 1))
     if found is None:
         return {}
     corrected, evidence = found

@@ -14,10 +14,10 @@ import math
 import numpy as np
 
 from pysim.diagnosis.candidates import CandidateFitter
-from pysim.diagnosis.folds import _settle_samples, _step_folds, step_windows
+from pysim.diagnosis.folds import settle_samples, step_folds, step_windows
 from pysim.diagnosis.rules import (DECISIVE_SHARE, DYNAMICS, NOISE_FRACTION, TIE_FRACTION, UNEXPLAINED_LEVEL,
-                                   _simplest_unless_outranked, advantage_holds)
-from pysim.diagnosis.scoring import _cross_validate
+                                   simplest_unless_outranked, advantage_holds)
+from pysim.diagnosis.scoring import cross_validate
 
 __all__ = ["shown_by_steps"]
 
@@ -42,18 +42,18 @@ def shown_by_steps(fitter: CandidateFitter, baseline, richer, candidates: dict, 
     structure of a cause is tried (a lag and a resonance, which the blocks
     may not tell apart); ``structures`` holds the one each named cause keeps.
     """
-    settle = _settle_samples(y.size)
+    settle = settle_samples(y.size)
     windows = [(first, stop) for first, stop in step_windows(fitter.v, settle) if first >= settle]
     s2 = noise_um**2
     dynamics = [c for c in DYNAMICS if c in candidates]
     if not windows or not dynamics or not s2 > 0:
         return None
     rows = np.concatenate([np.arange(first, stop) for first, stop in windows])
-    folds = _step_folds(windows, settle, y.size)
+    folds = step_folds(windows, settle, y.size)
 
     def window_errors(ev):
         """(prediction, mean-square error on every window, on all of them) out of sample."""
-        prediction = _cross_validate(fitter, ev.fit.family, ev.fit, folds, y)
+        prediction = cross_validate(fitter, ev.fit.family, ev.fit, folds, y)
         per_window = np.array([float(np.mean((y[a:b] - prediction[a:b]) ** 2)) for a, b in windows])
         return prediction, per_window, float(np.mean((y[rows] - prediction[rows]) ** 2))
 
@@ -82,7 +82,7 @@ def shown_by_steps(fitter: CandidateFitter, baseline, richer, candidates: dict, 
     def outranks(a, b):
         return advantage_holds(y[rows], predictions[b][rows], predictions[a][rows])
 
-    winner = _simplest_unless_outranked(ties, best, complexity, mse, outranks)
+    winner = simplest_unless_outranked(ties, best, complexity, mse, outranks)
     causes = tuple([winner] + [c for c in ties if c != winner])
     return {"cause": winner, "causes": causes, "best": best, "explained_share": removed[best],
             "significant": {c: c in mse for c in candidates}, "text": "",

@@ -66,7 +66,9 @@ def check_model(model, source="spec", kinds=KINDS) -> str:
     return report.message
 
 
-def _platform_names(platforms) -> tuple:
+def platform_names(platforms) -> tuple:
+    """The platforms asked for (one name or several), each once and in order; an unknown or missing
+    one is a :class:`BuildError` naming the choices."""
     if isinstance(platforms, str):
         platforms = (platforms,)
     names = tuple(dict.fromkeys(platforms))
@@ -135,7 +137,7 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
         raise BuildError(str(exc)) from exc
     source = (spec_or_model if not isinstance(spec_or_model, (HysteresisModel, ExtendedModel))
               else f"model {model.name}")
-    names = _platform_names(platforms)
+    names = platform_names(platforms)
     kinds = tuple(k for k in KINDS if k in tuple(kinds))
     if not kinds:
         raise BuildError(f"kinds must name at least one of {KINDS}")

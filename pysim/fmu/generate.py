@@ -27,7 +27,14 @@ def model_identifier(model, kind: str) -> str:
     return f"{model.name}_{kind}"
 
 
-def _c_double(value: float) -> str:
+def c_double_literal(value: float) -> str:
+    """A C ``double`` literal that reads back to exactly ``value``.
+
+    Examples
+    --------
+    >>> c_double_literal(2), c_double_literal(0.1), c_double_literal(1e-300)
+    ('2.0', '0.1', '1e-300')
+    """
     text = repr(float(value))               # shortest exact round trip
     return text if any(c in text for c in ".en") else text + ".0"
 
@@ -63,7 +70,16 @@ def instance_magic(guid: str) -> int:
     return 0x8000 | int.from_bytes(hashlib.sha256(guid.encode()).digest()[:2], "little") & 0x7FFF
 
 
-def _initializer(items) -> str:
+def c_initializer(items) -> str:
+    """A C array initializer of the given element texts, wrapped at 100 columns.
+
+    Examples
+    --------
+    >>> print(c_initializer(["1.0", "2.5"]))
+    { \\
+        1.0, 2.5 \\
+    }
+    """
     items = list(items)
     lines, line = [], "    "
     for item in items:
@@ -79,8 +95,8 @@ def _initializer(items) -> str:
 def _c_array(values) -> str:
     """A C initializer of doubles; ``{ 0.0 }`` for none (C has no empty arrays,
     and the count macro says that nothing is used)."""
-    values = [_c_double(x) for x in values]
-    return _initializer(values) if values else "{ 0.0 }"
+    values = [c_double_literal(x) for x in values]
+    return c_initializer(values) if values else "{ 0.0 }"
 
 
 def _stage_config(model) -> list:
@@ -96,12 +112,12 @@ def _stage_config(model) -> list:
         " * coefficients discretised for the sample period; the creep weights and",
         " * drift coefficients are parameters (VR_creep_weight, VR_drift). */",
         "#define MODEL_HAS_OUTPUT_STAGES 1",
-        f"#define MODEL_SAMPLE_PERIOD {_c_double(stages['sample_period_s'])}",
+        f"#define MODEL_SAMPLE_PERIOD {c_double_literal(stages['sample_period_s'])}",
         "#define MODEL_FIXED_STEP_SIZE MODEL_SAMPLE_PERIOD",
         f"#define MODEL_N_SECTIONS {len(stages['sections'])}",
         f"#define MODEL_SECTIONS {_c_array(sections)}",
         f"#define MODEL_DELAY_WHOLE {int(stages['delay_whole'])}",
-        f"#define MODEL_DELAY_FRACTION {_c_double(stages['delay_fraction'])}",
+        f"#define MODEL_DELAY_FRACTION {c_double_literal(stages['delay_fraction'])}",
         f"#define MODEL_N_CREEP {len(stages['creep_alpha'])}",
         f"#define MODEL_CREEP_ALPHA {_c_array(stages['creep_alpha'])}",
         f"#define MODEL_CREEP_BETA {_c_array(stages['creep_beta'])}",
@@ -118,13 +134,13 @@ def units_and_log_categories_xml(units: dict, log_categories=LOG_CATEGORIES) -> 
     if units:
         lines.append("  <UnitDefinitions>")
         for name, (factor, exponents) in units.items():
-            base = _attributes(**{k: str(e) for k, e in exponents.items()},
-                               factor=None if factor == 1.0 else _xml_double(factor))
-            lines.append(f"    <Unit {_attributes(name=name)}><BaseUnit {base}/></Unit>")
+            base = xml_attributes(**{k: str(e) for k, e in exponents.items()},
+                                  factor=None if factor == 1.0 else xml_double(factor))
+            lines.append(f"    <Unit {xml_attributes(name=name)}><BaseUnit {base}/></Unit>")
         lines.append("  </UnitDefinitions>")
     lines.append("  <LogCategories>")
     for name, text in log_categories:
-        lines.append(f"    <Category {_attributes(name=name, description=text)}/>")
+        lines.append(f"    <Category {xml_attributes(name=name, description=text)}/>")
     lines.append("  </LogCategories>")
     return lines
 
@@ -138,14 +154,14 @@ def model_variables_xml(all_variables) -> list:
             {"parameter": "fixed", "local": "constant"}.get(v.causality, "discrete"))
         initial = {"parameter": "exact", "output": "calculated", "local": "exact"}.get(v.causality)
         lines.append(f"    <!-- index {v.value_reference + 1} -->")
-        lines.append("    <ScalarVariable " + _attributes(
+        lines.append("    <ScalarVariable " + xml_attributes(
             name=v.name, valueReference=v.value_reference, description=v.description,
             causality=v.causality, variability=variability, initial=initial) + ">")
         if v.type == "Real":
-            start = None if v.start is None else _xml_double(v.start)
-            lines.append(f"      <Real {_attributes(unit=v.unit, start=start)}/>")
+            start = None if v.start is None else xml_double(v.start)
+            lines.append(f"      <Real {xml_attributes(unit=v.unit, start=start)}/>")
         else:
-            lines.append(f"      <Boolean {_attributes(start='true' if v.start else 'false')}/>")
+            lines.append(f"      <Boolean {xml_attributes(start='true' if v.start else 'false')}/>")
         lines.append("    </ScalarVariable>")
     lines.append("  </ModelVariables>")
     return lines
@@ -195,13 +211,13 @@ def config_header_text(identifier: str, guid: str, what: str, all_variables, mod
     out += [f"#define VR_{v.c_name} {v.value_reference}" for v in all_variables if v.c_name]
     out += [
         "",
-        f"#define MODEL_REAL_NAMES {_initializer(_c_string(v.name) for v in reals)}",
-        f"#define MODEL_REAL_STARTS {_initializer(_c_double(v.start or 0.0) for v in reals)}",
+        f"#define MODEL_REAL_NAMES {c_initializer(_c_string(v.name) for v in reals)}",
+        f"#define MODEL_REAL_STARTS {c_initializer(c_double_literal(v.start or 0.0) for v in reals)}",
     ]
     if booleans:
         out += [
-            f"#define MODEL_BOOLEAN_NAMES {_initializer(_c_string(v.name) for v in booleans)}",
-            f"#define MODEL_BOOLEAN_STARTS {_initializer('1' if v.start else '0' for v in booleans)}",
+            f"#define MODEL_BOOLEAN_NAMES {c_initializer(_c_string(v.name) for v in booleans)}",
+            f"#define MODEL_BOOLEAN_STARTS {c_initializer('1' if v.start else '0' for v in booleans)}",
         ]
     out += [*trailing_defines, "", "#endif /* PIEZO_MODEL_CONFIG_H */", ""]
     return "\n".join(out)
@@ -216,11 +232,19 @@ def config_header(model, kind: str, guid: str) -> str:
         trailing_defines=_stage_config(model) if kind == "plant" else ())
 
 
-def _xml_double(value: float) -> str:
+def xml_double(value: float) -> str:
+    """An XML attribute value that reads back to exactly ``value`` (the shortest round trip)."""
     return repr(float(value))
 
 
-def _attributes(**attrs) -> str:
+def xml_attributes(**attrs) -> str:
+    """``key="value"`` pairs, quoted and escaped for XML; a value of None leaves its key out.
+
+    Examples
+    --------
+    >>> print(xml_attributes(name="a<b", unit=None, start="1.0"))
+    name="a&lt;b" start="1.0"
+    """
     return " ".join(f"{key}={quoteattr(str(value))}" for key, value in attrs.items() if value is not None)
 
 
@@ -234,16 +258,16 @@ def model_description(model, kind: str, guid: str, source_files, version: str) -
     description = f"{what}; {model.n_operators} {_operator(model)} operators"
     if stages is not None:
         description += (f"; output stages {stage_summary(model)}, sampled at "
-                        f"{_xml_double(stages['sample_period_s'])} s (fixed communication step)")
+                        f"{xml_double(stages['sample_period_s'])} s (fixed communication step)")
     description += f"; spec {model.name}"
     if model.description:
         description += f": {model.description}"
     lines = ['<?xml version="1.0" encoding="UTF-8"?>']
-    lines.append("<fmiModelDescription " + _attributes(
+    lines.append("<fmiModelDescription " + xml_attributes(
         fmiVersion="2.0", modelName=ident, guid=guid, description=description,
         generationTool=f"{GENERATION_TOOL} {version}", version=version,
         variableNamingConvention="structured", numberOfEventIndicators="0") + ">")
-    lines.append("  <CoSimulation " + _attributes(
+    lines.append("  <CoSimulation " + xml_attributes(
         modelIdentifier=ident, needsExecutionTool="false",
         canHandleVariableCommunicationStepSize="true" if stages is None else "false",
         canInterpolateInputs="false", maxOutputDerivativeOrder="0", canRunAsynchronuously="false",
@@ -252,12 +276,12 @@ def model_description(model, kind: str, guid: str, source_files, version: str) -
         providesDirectionalDerivative="false") + ">")
     lines.append("    <SourceFiles>")
     for name in source_files:
-        lines.append(f"      <File {_attributes(name=name)}/>")
+        lines.append(f"      <File {xml_attributes(name=name)}/>")
     lines.append("    </SourceFiles>")
     lines.append("  </CoSimulation>")
     lines += units_and_log_categories_xml(unit_definitions(allv))
-    step = "0.001" if stages is None else _xml_double(stages["sample_period_s"])
-    lines.append("  " + "<DefaultExperiment " + _attributes(startTime="0.0", stopTime="1.0", stepSize=step)
+    step = "0.001" if stages is None else xml_double(stages["sample_period_s"])
+    lines.append("  " + "<DefaultExperiment " + xml_attributes(startTime="0.0", stopTime="1.0", stepSize=step)
                  + "/>")
     lines += model_variables_xml(allv)
     # ModelStructure indices are 1-based positions in ModelVariables (= vr + 1)
@@ -303,8 +327,8 @@ def stage_summary(model) -> str:
 
 
 def _dependencies(index: int, deps) -> str:
-    return _attributes(index=index, dependencies=" ".join(map(str, deps)),
-                       dependenciesKind=" ".join("dependent" for _ in deps))
+    return xml_attributes(index=index, dependencies=" ".join(map(str, deps)),
+                          dependenciesKind=" ".join("dependent" for _ in deps))
 
 
 # Hand-written C files shipped in every FMU's sources/ (besides the model's

@@ -73,9 +73,9 @@ import numpy as np
 
 from pysim.core.rig import Amplifier, Converter, PIController, SensorNoise
 from pysim.core.toolchain import SOURCE_DIR
-from pysim.fmu.build import _platform_names, compile_and_package, tool_version
+from pysim.fmu.build import platform_names, compile_and_package, tool_version
 from pysim.fmu.errors import BuildError
-from pysim.fmu.generate import (GENERATION_TOOL, _attributes, _c_double, _initializer, _xml_double,
+from pysim.fmu.generate import (GENERATION_TOOL, xml_attributes, c_double_literal, c_initializer, xml_double,
                                 config_header_text, model_variables_xml, units_and_log_categories_xml)
 from pysim.fmu.variables import Variable
 
@@ -423,7 +423,7 @@ def lti_part(system, step_s: float, name: str = "lti", input_unit: str | None = 
         step = dt
     Ad, Bd, _, _ = zoh_matrices(system, step)
     rate = None if dt else "1/s"
-    kind_text = "discrete (sampling time %s s)" % _xml_double(dt) if dt else "continuous"
+    kind_text = "discrete (sampling time %s s)" % xml_double(dt) if dt else "continuous"
     rows = [
         ("u", "input", input_unit, 0.0, "input, held over the step"),
         ("y", "output", output_unit, None, "output y = C z + D u"),
@@ -439,8 +439,8 @@ def lti_part(system, step_s: float, name: str = "lti", input_unit: str | None = 
     variables = _numbered(rows)
 
     def array(values):
-        values = [_c_double(x) for x in np.ravel(values)]
-        return _initializer(values) if values else "{ 0.0 }"
+        values = [c_double_literal(x) for x in np.ravel(values)]
+        return c_initializer(values) if values else "{ 0.0 }"
 
     config = (
         f"#define MODEL_N_STATES {n}",
@@ -465,24 +465,24 @@ def _unit_definitions(variables) -> dict:
 def config_header(part: PartFMU, guid: str) -> str:
     """Text of ``model_config.h`` of a rig-part FMU."""
     return config_header_text(part.identifier, guid, f"{part.kind} FMU of a rig part", part.variables,
-                              model_defines=[f"#define MODEL_NOMINAL_STEP {_c_double(part.nominal_step_s)}"],
+                              model_defines=[f"#define MODEL_NOMINAL_STEP {c_double_literal(part.nominal_step_s)}"],
                               trailing_defines=["", *part.config] if part.config else ())
 
 
 def _dependencies(index: int, deps) -> str:
-    return _attributes(index=index, dependencies=" ".join(map(str, deps)),
-                       dependenciesKind=" ".join("dependent" for _ in deps) if deps else None)
+    return xml_attributes(index=index, dependencies=" ".join(map(str, deps)),
+                          dependenciesKind=" ".join("dependent" for _ in deps) if deps else None)
 
 
 def model_description(part: PartFMU, guid: str, version: str) -> str:
     """Text of ``modelDescription.xml`` (FMI 2.0 co-simulation) of a rig-part FMU."""
     allv = part.variables
     lines = ['<?xml version="1.0" encoding="UTF-8"?>']
-    lines.append("<fmiModelDescription " + _attributes(
+    lines.append("<fmiModelDescription " + xml_attributes(
         fmiVersion="2.0", modelName=part.identifier, guid=guid, description=part.description,
         generationTool=f"{GENERATION_TOOL} {version}", version=version,
         variableNamingConvention="structured", numberOfEventIndicators="0") + ">")
-    lines.append("  <CoSimulation " + _attributes(
+    lines.append("  <CoSimulation " + xml_attributes(
         modelIdentifier=part.identifier, needsExecutionTool="false",
         canHandleVariableCommunicationStepSize="false" if part.fixed_step else "true",
         canInterpolateInputs="false", maxOutputDerivativeOrder="0", canRunAsynchronuously="false",
@@ -490,13 +490,13 @@ def model_description(part: PartFMU, guid: str, version: str) -> str:
         canGetAndSetFMUstate="true", canSerializeFMUstate="true",
         providesDirectionalDerivative="false") + ">")
     lines.append("    <SourceFiles>")
-    lines.append(f"      <File {_attributes(name='all.c')}/>")
+    lines.append(f"      <File {xml_attributes(name='all.c')}/>")
     lines.append("    </SourceFiles>")
     lines.append("  </CoSimulation>")
     lines += units_and_log_categories_xml(_unit_definitions(allv), LOG_CATEGORIES)
-    lines.append("  <DefaultExperiment " + _attributes(
-        startTime="0.0", stopTime=_xml_double(1000 * part.nominal_step_s),
-        stepSize=_xml_double(part.nominal_step_s)) + "/>")
+    lines.append("  <DefaultExperiment " + xml_attributes(
+        startTime="0.0", stopTime=xml_double(1000 * part.nominal_step_s),
+        stepSize=xml_double(part.nominal_step_s)) + "/>")
     lines += model_variables_xml(allv)
     inputs = [v.value_reference + 1 for v in allv if v.causality == "input"]
     parameters = [v.value_reference + 1 for v in allv if v.causality == "parameter"]
@@ -590,7 +590,7 @@ def build_part_fmus(parts, out_dir, platforms=("linux64", "win64", "darwin64"), 
     idents = [p.identifier for p in parts]
     if len(set(idents)) != len(idents):
         raise BuildError(f"rig-part FMU identifiers must differ, got {idents}")
-    names = _platform_names(platforms)
+    names = platform_names(platforms)
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise BuildError(f"{out_dir}: exists and is not a folder")
