@@ -466,17 +466,14 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         _check_record(v2, y2, rate2, where2)
         # the extended models run at one sample period, the first record's (the one a spec is written for)
         try:
-            v2, y2, resampled = resample_record(v2, y2, float(rate2), float(sample_rate_hz))
+            v2, y2, how = resample_record(v2, y2, float(rate2), float(sample_rate_hz))
         except DataError as exc:
             raise DiagnosisError(f"{where2}{exc} (the models run at the sample period of "
                                  f"{source or 'the first record'})") from exc
-        if resampled != "as recorded":
+        if how != "as recorded":
             resampled = (f"{validate_source or 'the second record'} was sampled at {float(rate2):g} Hz and is "
-                         f"used at {float(sample_rate_hz):g} Hz, the rate of {source or 'the first record'}: "
-                         f"{resampled}")
+                         f"used at {float(sample_rate_hz):g} Hz, the rate of {source or 'the first record'}: {how}")
             _check_record(v2, y2, sample_rate_hz, where2)
-        else:
-            resampled = ""
         rate2 = sample_rate_hz
     T = 1.0 / float(sample_rate_hz)
     time = np.arange(v.size) * T if time_s is None else np.asarray(time_s, dtype=float).ravel()
