@@ -20,6 +20,7 @@ from pysim.identification.data import (
     COLUMNS,
     SHIPPED_DATASETS,
     MeasuredData,
+    checked_sample_rate,
     estimate_sample_rate,
     load_measured,
     require_even_sampling,
@@ -387,9 +388,34 @@ def test_resample_record_keeps_the_samples_on_the_grid_and_invents_none():
         assert str(refused.value).startswith(f"a record at {from_hz:g} Hz cannot be used at {to_hz:g} Hz")
 
 
+def test_one_sample_rate_check_serves_the_loader_the_diagnosis_and_the_excitation(tmp_path):
+    """A sample rate given as a number is checked by one rule everywhere: text, booleans, NaN,
+    infinities, zero and negative numbers are refused with one line naming where, in the error type
+    of the layer that was called; every kind of real number is taken as a float."""
+    from pysim.diagnosis.diagnose import diagnose
+    from pysim.diagnosis.errors import DiagnosisError
+    from pysim.diagnosis.excitation import separating_excitation
+
+    for good in (2000, 2000.0, np.int32(2000), np.float32(2000.0)):
+        assert checked_sample_rate(good) == 2000.0 and type(checked_sample_rate(good)) is float
+    path = write(tmp_path / "r.csv", "voltage_V,displacement_um\n0,0\n1,2\n2,3\n")
+    v = np.r_[np.linspace(0.0, 10.0, 250), np.linspace(10.0, 0.0, 250)]
+    for bad, shown in (("2000", "'2000'"), (True, "True"), (math.nan, "nan"), (math.inf, "inf"), (0.0, "0.0"),
+                       (-5, "-5"), (None, "None")):
+        fragment = f"must be a positive finite number of Hz, got {shown}"
+        with pytest.raises(DataError, match=re.escape(f"rate of x must be a positive finite number of Hz, got {shown}")):
+            checked_sample_rate(bad, "rate of x")
+        if bad is not None:            # None is the loader's "from the time column"
+            assert load_error(path, sample_rate_hz=bad) == f"{path}: sample rate {fragment}"
+        for call in (lambda: diagnose(v, 2.0 * v, bad), lambda: separating_excitation(["delay"], (0.0, 10.0), bad)):
+            with pytest.raises(DiagnosisError) as refused:
+                call()
+            assert str(refused.value) == f"sample rate {fragment}"
+
+
 def test_resample_record_refuses_bad_rates_and_too_few_samples():
-    for rates, fragment in (((0.0, 1000.0), "from_rate_hz must be a positive number of Hz, got 0.0"),
-                            ((1000.0, math.nan), "to_rate_hz must be a positive number of Hz, got nan")):
+    for rates, fragment in (((0.0, 1000.0), "from_rate_hz must be a positive finite number of Hz, got 0.0"),
+                            ((1000.0, math.nan), "to_rate_hz must be a positive finite number of Hz, got nan")):
         with pytest.raises(DataError, match=re.escape(fragment)):
             resample_record(np.arange(10.0), np.arange(10.0), *rates)
     with pytest.raises(DataError, match="3 samples at 3000 Hz leave 1 at 1000 Hz"):

@@ -109,7 +109,7 @@ from pysim.diagnosis.second_record import (RolesStand, best_fitted_on_both_recor
 from pysim.diagnosis.shape import correct_for_shape
 from pysim.diagnosis.steps import shown_by_steps
 from pysim.diagnosis.validation import score_on_record
-from pysim.identification.data import resample_record
+from pysim.identification.data import checked_sample_rate, resample_record
 from pysim.identification.errors import DataError
 from pysim.identification.identify import IdentificationError, identify, require_rising, start_transient
 
@@ -368,9 +368,7 @@ def _note_resampling(validation: dict, resampled: str) -> None:
 def _check_record(v, y, sample_rate_hz, what: str):
     if v.shape != y.shape:
         raise DiagnosisError(f"{what}{v.size} voltage samples but {y.size} displacement samples")
-    if not (isinstance(sample_rate_hz, (int, float, np.floating)) and math.isfinite(sample_rate_hz)
-            and sample_rate_hz > 0):
-        raise DiagnosisError(f"{what}sample rate must be a positive number of Hz, got {sample_rate_hz}")
+    checked_sample_rate(sample_rate_hz, f"{what}sample rate", DiagnosisError)
     if not (np.all(np.isfinite(v)) and np.all(np.isfinite(y))):
         raise DiagnosisError(f"{what}the record holds NaN or infinite values")
     if v.size < 400:

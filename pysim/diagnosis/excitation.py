@@ -32,6 +32,7 @@ import math
 import numpy as np
 
 from pysim.diagnosis.errors import DiagnosisError
+from pysim.identification.data import checked_sample_rate
 
 _FREQUENCY_CAUSES = {"delay", "rate_dependence", "rate_dependent_hysteresis", "slew_limit"}
 
@@ -73,8 +74,7 @@ def separating_excitation(causes, voltage_range_V, sample_rate_hz: float, n_samp
     lo, hi = (float(x) for x in voltage_range_V)
     if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
         raise DiagnosisError(f"voltage range must be finite with low < high, got {voltage_range_V}")
-    if not (math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
-        raise DiagnosisError(f"sample rate must be a positive number of Hz, got {sample_rate_hz}")
+    sample_rate_hz = checked_sample_rate(sample_rate_hz, "sample rate", DiagnosisError)
     n_samples = int(n_samples)
     if n_samples < 2000:
         raise DiagnosisError(f"an excitation needs at least 2000 samples, got {n_samples}")

@@ -43,7 +43,8 @@ from pysim.identification.errors import DataError, IdentificationError
 
 __all__ = [
     "COLUMNS", "MeasuredData", "load_measured", "load_reference", "save_measured", "require_samples",
-    "estimate_sample_rate", "require_even_sampling", "resample_record", "EVEN_SAMPLING_SPREAD", "shipped_dataset",
+    "estimate_sample_rate", "require_even_sampling", "resample_record", "checked_sample_rate", "EVEN_SAMPLING_SPREAD",
+    "shipped_dataset",
     "SHIPPED_DATASETS",
 ]
 
@@ -214,6 +215,32 @@ def require_even_sampling(data: MeasuredData, what: str) -> None:
                         f"{what} needs evenly spaced samples (resample the record, or split it at the gap)")
 
 
+def checked_sample_rate(sample_rate_hz, what: str = "sample rate", error: type = DataError) -> float:
+    """``sample_rate_hz`` as a float, or one ``error`` naming ``what`` when it is not a
+    positive finite number of Hz.
+
+    The one check of a sample rate given as a number -- the loader's option,
+    the records given to the diagnosis, resampling, an excitation.  Text,
+    booleans, NaN, infinities, zero and negative numbers are refused; each
+    layer passes its own error type.
+
+    Examples
+    --------
+    >>> checked_sample_rate(np.int64(2000))
+    2000.0
+    >>> try:
+    ...     checked_sample_rate("2000", "run.csv: sample rate")
+    ... except DataError as exc:
+    ...     print(exc)
+    run.csv: sample rate must be a positive finite number of Hz, got '2000'
+    """
+    number = isinstance(sample_rate_hz, (int, float, np.integer, np.floating)) and not isinstance(sample_rate_hz, bool)
+    if not (number and math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
+        shown = repr(sample_rate_hz) if isinstance(sample_rate_hz, str) else sample_rate_hz
+        raise error(f"{what} must be a positive finite number of Hz, got {shown}")
+    return float(sample_rate_hz)
+
+
 def resample_record(voltage_V, displacement_um, from_rate_hz: float, to_rate_hz: float) -> tuple:
     """The samples of a record taken at ``from_rate_hz`` that fall on the grid of ``to_rate_hz``.
 
@@ -263,9 +290,8 @@ def resample_record(voltage_V, displacement_um, from_rate_hz: float, to_rate_hz:
     """
     v = np.asarray(voltage_V, dtype=float).ravel()
     y = np.asarray(displacement_um, dtype=float).ravel()
-    for name, rate in (("from_rate_hz", from_rate_hz), ("to_rate_hz", to_rate_hz)):
-        if not (isinstance(rate, (int, float, np.floating, np.integer)) and math.isfinite(rate) and rate > 0):
-            raise DataError(f"{name} must be a positive number of Hz, got {rate}")
+    checked_sample_rate(from_rate_hz, "from_rate_hz")
+    checked_sample_rate(to_rate_hz, "to_rate_hz")
     if v.size != y.size or v.size < 2:
         raise DataError(f"a record to resample needs at least 2 samples of voltage and displacement each "
                         f"(got {v.size} and {y.size})")
@@ -431,7 +457,7 @@ def _load_columns(path, specs: dict, header, delimiter, sample_rate_hz, skip_row
     time column; ``read_as`` describes the columns found by another name."""
     name = str(path)
     path = Path(path)
-    rate = _check_sample_rate(name, sample_rate_hz)
+    rate = None if sample_rate_hz is None else checked_sample_rate(sample_rate_hz, f"{name}: sample rate")
     if isinstance(skip_rows, bool) or not isinstance(skip_rows, (int, np.integer)) or skip_rows < 0:
         raise DataError(f"{name}: skip_rows must be a whole number >= 0, got {skip_rows!r}")
     lines = _read_lines(path, name)
@@ -635,18 +661,6 @@ def _count_lines(lines) -> int:
 
 def _blank(line: str) -> bool:
     return not line or line.isspace()
-
-
-def _check_sample_rate(name, sample_rate_hz):
-    if sample_rate_hz is None:
-        return None
-    try:
-        rate = float(sample_rate_hz)
-    except (TypeError, ValueError):
-        raise DataError(f"{name}: sample rate must be a number of Hz, got {sample_rate_hz!r}") from None
-    if not (math.isfinite(rate) and rate > 0):
-        raise DataError(f"{name}: sample rate must be a positive finite number of Hz, got {sample_rate_hz!r}")
-    return rate
 
 
 # ------------------------------------------------------------- delimiters
