@@ -82,12 +82,15 @@ Procedure (``diagnose``):
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from pysim.diagnosis.artefacts import (REPAIRABLE, artefacts_sentence, find_artefacts,
+                                      repaired_displacement)
 from pysim.diagnosis.candidates import EFFECTS, CandidateFitter
 from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.excitation import separating_excitation
@@ -148,6 +151,13 @@ class Diagnosis:
         best rate-independent model's residual, in σ² and % of range; every
         model on that record was compared after the same correction.  Empty
         when the MPI class draws the record's loops.
+    artefacts : list of dict
+        Spikes, jumps and flat runs of the displacement that no model of the
+        actuator explains (:func:`pysim.diagnosis.artefacts.record_artefacts`),
+        each with ``record`` ("first" or "second", as given) and ``repaired``
+        (spikes and jumps are, before the diagnosis, unless
+        ``repair_artefacts=False``; ``displacement_um`` is then the repaired
+        record).  Samples count from the record's first.
     baseline, extended, richer : Evaluation
     candidates : dict
         Cause → Evaluation.
@@ -181,6 +191,7 @@ class Diagnosis:
     swap_reason: str = ""
     steps: dict = None
     shape: dict = field(default_factory=dict)
+    artefacts: list = field(default_factory=list)
 
     @property
     def gain_pct(self) -> float:
@@ -265,6 +276,7 @@ class Diagnosis:
                 "cross_validation_causes": list(self.cross_validation_causes),
                 "steps": self.steps,
                 "shape": self.shape,
+                "record_artefacts": self.artefacts,
                 "validation": self.validation,
                 "residual_statistics": _plain(self.statistics),
             },
@@ -383,7 +395,7 @@ def _check_record(v, y, sample_rate_hz, what: str):
 def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, n_operators: int = 10,
              model: str = "mpi", operator: str = "osp", train_fraction: float = DEFAULT_TRAIN_FRACTION,
              warmup="auto", validate=None, name: str = "extended_mpi", source: str = "",
-             validate_source: str = "", _swap_reason: str = "") -> Diagnosis:
+             validate_source: str = "", repair_artefacts: bool = True, _swap_reason: str = "") -> Diagnosis:
     """Diagnose what a rate-independent MPI model misses on a measured record.
 
     Parameters
@@ -423,6 +435,10 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         Name of the extended model (a C identifier).
     source, validate_source : str
         Where the data came from (for the report).
+    repair_artefacts : bool
+        Repair the spikes and jumps found in either record before the
+        diagnosis (:mod:`pysim.diagnosis.artefacts`); with False they are
+        only reported.  Flat runs are always only reported.
 
     Returns
     -------
@@ -473,6 +489,31 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                          f"used at {float(sample_rate_hz):g} Hz, the rate of {source or 'the first record'}: {how}")
             _check_record(v2, y2, sample_rate_hz, where2)
         rate2 = sample_rate_hz
+    # spikes, jumps and flat runs no model of the actuator explains, found on each record's plain fit
+    # first (a jump looks like drift or creep to every candidate); the records' roles are the user's
+    artefacts = []
+    if not _swap_reason:
+        fit_options = {"n_operators": n_operators, "model": model, "operator": operator}
+        artefacts = [dict(a, record="first") for a in find_artefacts(v, y, sample_rate_hz, **fit_options)]
+        if validate is not None:
+            artefacts += [dict(a, record="second") for a in find_artefacts(v2, y2, sample_rate_hz, **fit_options)]
+        for a in artefacts:
+            a["repaired"] = bool(repair_artefacts and a["kind"] in REPAIRABLE)
+            if a["record"] == "first" and time_s is not None and np.size(time_s) == v.size:
+                a["time_s"] = float(np.ravel(time_s)[a["sample"]])
+        if any(a["repaired"] for a in artefacts):
+            y = repaired_displacement(y, [a for a in artefacts if a["repaired"] and a["record"] == "first"])
+            given = (v, y, sample_rate_hz)
+            if validate is not None:
+                y2 = repaired_displacement(y2, [a for a in artefacts if a["repaired"] and a["record"] == "second"])
+
+    def reported(result):
+        """The result with the artefacts found here, and their sentence in ``why``."""
+        if not artefacts:
+            return result
+        sentence = artefacts_sentence(artefacts, source or "the first record", validate_source or "the second record")
+        return dataclasses.replace(result, artefacts=artefacts, why=f"{result.why}. {sentence}")
+
     T = 1.0 / float(sample_rate_hz)
     time = np.arange(v.size) * T if time_s is None else np.asarray(time_s, dtype=float).ravel()
     try:
@@ -518,7 +559,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         # cannot show, not for its effect: when the second record identifies it, the roles swap
         swapped = in_turn(f"{source or 'first record'} cannot identify the hysteresis ({unidentified})")
         if swapped is not None:
-            return swapped
+            return reported(swapped)
 
     turn_tried = False
     beyond = range_beyond_first(given[0], v2) if validate is not None and not _swap_reason else 0.0
@@ -805,8 +846,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         shows = "shows an effect only in its responses to steps" if steps_alone else "shows no effect beyond its noise"
         turned = in_turn(f"{first} {shows}, and {second} may show one that the input of {first} does not excite")
         if turned is not None and turned.cause in EFFECTS:
-            return turned
-    return Diagnosis(cause=cause, split=split, sample_period_s=T, noise_um=noise, baseline=baseline,
+            return reported(turned)
+    return reported(Diagnosis(cause=cause, split=split, sample_period_s=T, noise_um=noise, baseline=baseline,
                      candidates=candidates, extended=extended, statistics=statistics,
                      reasons=_reasons(candidates, stats, cv_verdict.get("steps")), why=why, time_s=time, voltage_V=v,
                      displacement_um=y, source=source, causes=tuple(causes), excitation=excitation,
@@ -816,7 +857,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                      cross_validation_causes=tuple(cv_verdict["causes"]), validation=validation,
                      excitation_plan=plan, start_excluded_samples=start,
                      records_swapped=bool(_swap_reason), swap_reason=_swap_reason,
-                     steps=cv_verdict.get("steps"), shape=shape)
+                     steps=cv_verdict.get("steps"), shape=shape))
 
 
 def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -> str:

@@ -40,6 +40,9 @@ def register(subparsers) -> None:
     parser.add_argument("--warmup", default="auto",
                         help="'auto' (default: no warm-up, the initial operator state is estimated) or a number "
                              "of samples the plots treat as warm-up")
+    parser.add_argument("--keep-artefacts", action="store_true",
+                        help="report spikes and jumps of the displacement (which no model of the actuator "
+                             "explains) without repairing them first; flat runs are only ever reported")
     add_data_options(parser)
     parser.set_defaults(func=run)
 
@@ -74,7 +77,8 @@ def run(args) -> int:
                       train_fraction=args.train_fraction, warmup=warmup, name=name, source=data.source,
                       validate=None if other is None else (other.voltage_V, other.displacement_um,
                                                            other.sample_rate_hz),
-                      validate_source="" if other is None else other.source)
+                      validate_source="" if other is None else other.source,
+                      repair_artefacts=not args.keep_artefacts)
     if args.report:
         from pysim.diagnosis.report import write_report
 
@@ -142,6 +146,11 @@ def format_text(result, report, out) -> str:
                      f"cross-validation alone: {result.cross_validation_cause}")
         if result.validation.get("resampled"):
             lines.append(f"  {result.validation['resampled']}")
+    if result.artefacts:
+        listed = [f"{a['kind']} at sample {a['sample']} of the {a['record']} record"
+                  + (" (repaired)" if a["repaired"] else "") for a in result.artefacts]
+        lines.append("\n  record artefacts: " + ", ".join(listed[:8]) + (f", and {len(listed) - 8} more"
+                                                                          if len(listed) > 8 else ""))
     if result.records_swapped:
         lines.append(f"  records swapped: {result.swap_reason}, so the models were fitted on "
                      f"{result.source or 'the second record'} and scored on "

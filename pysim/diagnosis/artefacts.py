@@ -1,0 +1,330 @@
+"""What a record shows that no model of the actuator explains: sensor and logger artefacts.
+
+Every cause of the diagnosis catalogue acts on the actuator, and the
+actuator's displacement is continuous: it neither leaps between two samples
+while the voltage is steady nor freezes while the voltage moves.  Three
+things a rig's record can nevertheless hold, found here from the record and
+the plain fit's residual (measured − simulated displacement):
+
+``spike``
+    A single sample far off both of its neighbours, which agree with each
+    other (a glitch of the sensor, the ADC or the logger).
+``jump``
+    A step of the residual between two samples that stays, with the
+    samples around it quiet, while the input is steady (no input step in the
+    20 samples before and 5 after, so a delayed or lagging response to an
+    input step is never one): the sensor's zero, its mount or the stage moved.
+``flat``
+    The displacement repeats exactly the same value for many samples while
+    the fitted model moves by half the limit below or more, and misses the
+    reading by as much (``clipped`` at the record's maximum or minimum: the
+    sensor or its amplifier saturates; ``stuck`` elsewhere: a frozen
+    reading).  A quantised sensor repeats its value during a hold, where the
+    model does not move.
+
+Each must stand :data:`ARTEFACT_SIGMAS` noise σ out of what the noise makes,
+so white noise alone shows one with a probability below 10⁻¹⁵ per sample.
+They bias every fit, and a jump looks like drift or creep to the catalogue,
+so the diagnosis looks for them first (:func:`find_artefacts`, on the plain
+fit of each record) and repairs the two that can be repaired without
+guessing (:func:`repaired_displacement`): a spike becomes the mean of its
+neighbours, and the displacement after a jump is shifted back by the jump.
+A flat run hides what the sensor did not see; it is reported, not filled.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pysim.diagnosis.residuals import noise_sigma, quantum
+from pysim.identification.errors import IdentificationError
+from pysim.identification.identify import identify
+
+__all__ = ["ARTEFACT_SIGMAS", "FLAT_RUN_SAMPLES", "REPAIRABLE", "record_artefacts", "find_artefacts",
+           "repaired_displacement", "artefacts_sentence"]
+
+#: An artefact stands this many noise σ out of what the noise makes.
+ARTEFACT_SIGMAS = 10.0
+#: A run of identical displacement samples this long (or longer) while the model moves is flat.
+FLAT_RUN_SAMPLES = 20
+#: Samples after (and before) an input step where the model's own errors gather (delays, lags,
+#: ringing): no jump or spike is looked for there.
+_AFTER_INPUT_STEP, _BEFORE_INPUT_STEP = 20, 5
+#: A jump's neighbours: the residual's other steps within this many samples are small.
+_QUIET = 5
+#: A jump's size is measured on up to this many samples on either side ...
+_SIZE_WINDOW = 200
+#: ... and again on the fit of the record repaired by it, this many times.
+_SIZE_REFITS = 3
+#: The kinds :func:`repaired_displacement` repairs.
+REPAIRABLE = ("spike", "jump")
+#: Found spikes and jumps listed one by one at most; more are counted.
+_LISTED = 5
+
+
+def record_artefacts(voltage_V, displacement_um, residual_um, noise_um: float, sample_rate_hz: float) -> list:
+    """Spikes, jumps and flat runs in a record (see the module's description).
+
+    Parameters
+    ----------
+    voltage_V, displacement_um : array_like
+        The record.
+    residual_um : array_like
+        Measured minus simulated displacement of a model fitted to it (µm).
+    noise_um : float
+        Noise σ of the residual (µm).
+    sample_rate_hz : float
+
+    Returns
+    -------
+    list of dict
+        One per artefact, in order of the sample: ``kind`` (``"spike"``,
+        ``"jump"``, ``"clipped"`` or ``"stuck"``), ``sample`` (0-based first
+        sample), ``time_s``, ``samples`` (how many), ``size_um`` (the spike's
+        or jump's size, or the largest residual of a flat run) and
+        ``size_over_noise``.
+
+    Examples
+    --------
+    >>> k = np.arange(4000)
+    >>> v = 50.0 + 40.0 * np.sin(2 * np.pi * k / 1000)
+    >>> rng = np.random.default_rng(0)
+    >>> y = 0.2 * v + rng.normal(0.0, 0.01, k.size)
+    >>> y[2500:] += 0.5                                     # the sensor's zero moves
+    >>> y[700] += 0.4                                       # a glitch
+    >>> [(a["kind"], a["sample"]) for a in record_artefacts(v, y, y - 0.2 * v, 0.01, 1000.0)]
+    [('spike', 700), ('jump', 2499)]
+    """
+    v = np.asarray(voltage_V, dtype=float).ravel()
+    y = np.asarray(displacement_um, dtype=float).ravel()
+    r = np.asarray(residual_um, dtype=float).ravel()
+    n = v.size
+    if not (noise_um > 0 and math.isfinite(noise_um)) or n < 4 * _AFTER_INPUT_STEP or y.size != n or r.size != n:
+        return []
+    limit = ARTEFACT_SIGMAS * noise_um
+    near_step = _near_input_steps(v)
+    flat = _flat_runs(v, y, r, limit)
+    # a frozen reading that comes back steps to the true displacement: that step is the run's end
+    ends = {b for a in flat for b in (a["sample"] - 1, a["sample"] + a["samples"] - 1)}
+    jumps = [a for a in _jumps(r, limit, near_step) if not ends & {a["sample"] - 1, a["sample"], a["sample"] + 1}]
+    found = _spikes(r, limit, near_step) + jumps + flat
+    for a in found:
+        a["time_s"] = a["sample"] / sample_rate_hz
+        a["size_over_noise"] = abs(a["size_um"]) / noise_um
+    return sorted(found, key=lambda a: a["sample"])
+
+
+def find_artefacts(voltage_V, displacement_um, sample_rate_hz: float, **fit_options) -> list:
+    """:func:`record_artefacts` of a record against its plain rate-independent fit.
+
+    The fit (:func:`pysim.identification.identify.identify` with
+    ``fit_options``, every sample, the initial state estimated) and its
+    residual's noise are the record's own; a record that cannot be fitted
+    at all has no artefacts to report here (the diagnosis says why it cannot).
+
+    Examples
+    --------
+    >>> k = np.arange(4000)
+    >>> v = 50.0 + 40.0 * np.sin(2 * np.pi * k / 1000)
+    >>> y = 0.2 * v + np.random.default_rng(0).normal(0.0, 0.01, k.size)
+    >>> y[3000] -= 0.3
+    >>> [(a["kind"], a["sample"]) for a in find_artefacts(v, y, 1000.0)]
+    [('spike', 3000)]
+    """
+    v = np.asarray(voltage_V, dtype=float).ravel()
+    y = np.asarray(displacement_um, dtype=float).ravel()
+    try:
+        fit = identify(v, y, require_excitation=False, **fit_options)
+    except IdentificationError:
+        return []
+    residual = y - fit.prediction_um
+    found = record_artefacts(v, y, residual, noise_sigma(residual, quantum(y)), sample_rate_hz)
+    jumps = [a for a in found if a["kind"] == "jump"]
+    near_step = _near_input_steps(v)
+    steps = np.array([a["sample"] for a in jumps], dtype=int)
+    for _ in range(_SIZE_REFITS if jumps else 0):
+        # the fit that saw a jump took part of it into its weights and offset: measured again on the
+        # fit of the repaired record, what is left of each is added to it
+        repaired = repaired_displacement(y, found)
+        try:
+            residual = repaired - identify(v, repaired, require_excitation=False, **fit_options).prediction_um
+        except IdentificationError:
+            break
+        for a in jumps:
+            a["size_um"] += _jump_size(residual, a["sample"], steps, near_step, 0.0)
+    return found
+
+
+def repaired_displacement(displacement_um, artefacts) -> np.ndarray:
+    """The displacement with its spikes and jumps (:data:`REPAIRABLE`) repaired.
+
+    A spike's sample becomes the mean of its two neighbours; every sample
+    after a jump is shifted back by the jump's size.  Flat runs are kept.
+
+    Examples
+    --------
+    >>> y = np.array([0.0, 0.1, 5.0, 0.3, 0.4, 9.5, 9.6])
+    >>> found = [{"kind": "spike", "sample": 2, "size_um": 4.8}, {"kind": "jump", "sample": 4, "size_um": 9.0}]
+    >>> repaired_displacement(y, found).round(3).tolist()
+    [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6]
+    """
+    y = np.array(displacement_um, dtype=float).ravel()
+    for a in artefacts:
+        k = int(a["sample"])
+        if a["kind"] == "spike" and 0 < k < y.size - 1:
+            y[k] = 0.5 * (y[k - 1] + y[k + 1])
+        elif a["kind"] == "jump":
+            y[k + 1:] -= a["size_um"]
+    return y
+
+
+def _near_input_steps(v) -> np.ndarray:
+    """Samples within reach of an input step: a one-sample change of the input five times its median
+    change (and more than 0.1 % of its range), from ``_BEFORE_INPUT_STEP`` before to
+    ``_AFTER_INPUT_STEP`` after."""
+    dv = np.abs(np.diff(v))
+    step = dv > max(5.0 * float(np.median(dv)), 1e-3 * float(np.ptp(v)))
+    near = np.zeros(v.size, dtype=bool)
+    for k in np.flatnonzero(step):          # dv[k] is the change from sample k to k + 1
+        near[max(k - _BEFORE_INPUT_STEP, 0):k + 1 + _AFTER_INPUT_STEP + 1] = True
+    return near
+
+
+def _spikes(r, limit, near_step) -> list:
+    # off both neighbours by the limit (white noise: σ√1.5), the neighbours within a quarter of it
+    off = r[1:-1] - 0.5 * (r[:-2] + r[2:])
+    agree = np.abs(r[2:] - r[:-2]) < 0.25 * np.abs(off)
+    big = np.abs(off) > limit * math.sqrt(1.5)
+    candidates = np.flatnonzero(big & agree) + 1
+    out = []
+    for k in candidates:
+        if near_step[k] or k < 4 or k + 4 > r.size:
+            continue
+        # alone: a lone sample's neighbours are off by half of it (its own shadow), the next ones by
+        # noise; ringing or a cluster of glitches is off by as much on every sample
+        size = abs(off[k - 1])
+        if (max(abs(off[k - 2]), abs(off[k])) > 0.6 * size
+                or np.max(np.abs(np.r_[off[k - 4:k - 2], off[k + 1:k + 3]])) > 0.25 * size):
+            continue
+        out.append({"kind": "spike", "sample": int(k), "samples": 1, "size_um": float(off[k - 1])})
+    return out
+
+
+def _jumps(r, limit, near_step) -> list:
+    d = np.diff(r)                          # d[k]: from sample k to k + 1
+    big = np.flatnonzero(np.abs(d) > limit * math.sqrt(2.0))
+    out = []
+    for k in big:
+        if k < _QUIET or k + 1 + _QUIET > r.size or near_step[k] or near_step[k + 1]:
+            continue
+        around = np.r_[d[k - _QUIET:k], d[k + 1:k + 1 + _QUIET]]
+        if np.max(np.abs(around)) > 0.2 * abs(d[k]):
+            continue                         # not alone: a spike's way back, or a fast motion
+        shift = float(np.mean(r[k + 1:k + 1 + _QUIET]) - np.mean(r[k + 1 - _QUIET:k + 1]))
+        if abs(shift) < 0.7 * abs(d[k]) or abs(shift) < limit:
+            continue
+        out.append({"kind": "jump", "sample": int(k), "samples": 2,
+                    "size_um": _jump_size(r, k, big, near_step, shift)})
+    return out
+
+
+def _jump_size(r, k, big, near_step, first_guess) -> float:
+    """The jump between samples k and k + 1 from a straight line through the residual on either side
+    (up to ``_SIZE_WINDOW`` samples, not past another large step, not near an input step), both taken
+    to k + ½: a repair that leaves a step of a fraction of σ over half a record would still be seen
+    as drift.  The first guess (five samples each side) when a side has too few samples."""
+    before, after = big[big < k], big[big > k]
+    lo = max(k + 1 - _SIZE_WINDOW, int(before[-1]) + 1 if before.size else 0)
+    hi = min(k + 1 + _SIZE_WINDOW, int(after[0]) + 1 if after.size else r.size)
+    ends = []
+    for rows in (np.arange(lo, k + 1), np.arange(k + 1, hi)):
+        rows = rows[~near_step[rows]]
+        if rows.size < 20:
+            return first_guess
+        slope, level = np.polyfit(rows - (k + 0.5), r[rows], 1)
+        ends.append(level)
+    return float(ends[1] - ends[0])
+
+
+def _flat_runs(v, y, r, limit) -> list:
+    same = np.r_[False, y[1:] == y[:-1]]    # sample k repeats sample k - 1
+    edges = np.flatnonzero(np.diff(np.r_[0, same.astype(np.int8), 0]))
+    top, bottom = float(np.max(y)), float(np.min(y))
+    out = []
+    for start, stop in zip(edges[::2] - 1, edges[1::2]):     # samples start .. stop - 1 are equal
+        if stop - start < FLAT_RUN_SAMPLES:
+            continue
+        # the model moves by half the limit or more where the reading does not, and misses it by as much
+        model_moved = float(np.ptp(y[start:stop] - r[start:stop]))
+        worst = float(r[start:stop][np.argmax(np.abs(r[start:stop]))])
+        if model_moved < 0.5 * limit or abs(worst) < 0.5 * limit:
+            continue
+        moved = float(np.ptp(v[start:stop]))
+        kind = "clipped" if y[start] in (top, bottom) else "stuck"
+        out.append({"kind": kind, "sample": int(start), "samples": int(stop - start), "size_um": worst,
+                    "level_um": float(y[start]), "input_moved_V": moved, "model_moved_um": model_moved,
+                    "at": "maximum" if y[start] == top else "minimum" if y[start] == bottom else ""})
+    return out
+
+
+def artefacts_sentence(artefacts, first_name: str = "the record", second_name: str = "the second record") -> str:
+    """One sentence that states the artefacts found, record by record (``""`` when there are none).
+
+    Artefacts with ``record`` "second" are said of ``second_name``, the others of ``first_name``.
+
+    Examples
+    --------
+    >>> jump = {"kind": "jump", "sample": 9, "time_s": 0.009, "size_um": 0.5}
+    >>> text = artefacts_sentence([jump], "run.csv")
+    >>> text.startswith("run.csv holds what no model of the actuator explains: 1 jump of the displacement")
+    True
+    >>> "(+0.5 µm between samples 9 and 10, t = 0.009 s)" in text
+    True
+    """
+    sentences = []
+    for record, name in (("first", first_name), ("second", second_name)):
+        mine = [a for a in artefacts if a.get("record", "first") == record]
+        if mine:
+            sentences.append(f"{name} holds what no model of the actuator explains: " + "; ".join(_phrases(mine)))
+    if not sentences:
+        return ""
+    repaired = [a for a in artefacts if a.get("repaired")]
+    kept = [a for a in artefacts if not a.get("repaired")]
+    tail = []
+    if repaired:
+        tail.append("the spikes and jumps were repaired before the diagnosis (a spike replaced by the mean of its "
+                    "neighbours, the displacement after a jump shifted back by it)")
+    if kept:
+        tail.append("every fit is biased by what was kept -- cut or repair those samples and diagnose again")
+    tail = "; ".join(tail)
+    return "; and ".join(sentences) + ". " + tail[0].upper() + tail[1:]
+
+
+def _phrases(artefacts) -> list:
+    by_kind = {}
+    for a in artefacts:
+        by_kind.setdefault(a["kind"], []).append(a)
+    parts = []
+    if "spike" in by_kind:
+        s = by_kind["spike"]
+        listed = ", ".join(str(a["sample"]) for a in s[:_LISTED]) + (", …" if len(s) > _LISTED else "")
+        parts.append(f"{len(s)} spike{'s' if len(s) > 1 else ''} (single samples up to "
+                     f"{max(abs(a['size_um']) for a in s):.3g} µm off both neighbours while the input is smooth, at "
+                     f"sample{'s' if len(s) > 1 else ''} {listed}: a glitch of the sensor or logger)")
+    if "jump" in by_kind:
+        s = by_kind["jump"]
+        listed = "; ".join(f"{a['size_um']:+.3g} µm between samples {a['sample']} and {a['sample'] + 1}, "
+                           f"t = {a['time_s']:.4g} s" for a in s[:_LISTED]) + ("; …" if len(s) > _LISTED else "")
+        parts.append(f"{len(s)} jump{'s' if len(s) > 1 else ''} of the displacement while the input is steady "
+                     f"({listed}): the sensor's zero, its mount or the stage moved, which no effect of the "
+                     "catalogue does (a drift or creep named may be this)")
+    for a in by_kind.get("clipped", []):
+        parts.append(f"the displacement stays at its {a['at']} ({a['level_um']:.4g} µm) for {a['samples']} samples "
+                     f"from sample {a['sample']} while the input moves by {a['input_moved_V']:.3g} V and the model by "
+                     f"{a['model_moved_um']:.3g} µm: the sensor or its amplifier saturates")
+    for a in by_kind.get("stuck", []):
+        parts.append(f"the displacement stays at exactly {a['level_um']:.4g} µm for {a['samples']} samples from "
+                     f"sample {a['sample']} while the input moves by {a['input_moved_V']:.3g} V and the model by "
+                     f"{a['model_moved_um']:.3g} µm: a frozen reading")
+    return parts
