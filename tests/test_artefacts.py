@@ -162,3 +162,26 @@ def test_cli_reports_the_artefacts_of_both_records(tmp_path):
     assert text.returncode == 0, text.stderr
     assert f"record artefacts: jump at sample {y.size // 2 - 1} of the first record" in text.stdout
     assert "(repaired)" not in text.stdout
+
+
+def test_cli_identify_reports_artefacts_in_the_samples_it_fits(tmp_path):
+    """`pysim identify` fits the record as given and says what in it no actuator explains."""
+    pair, v, y, fs = _record(0)
+    sigma = pair.truth.noise_sigma_um
+    spiked = y.copy()
+    at = _quiet_samples(v, 1, np.random.default_rng(9))[0]
+    spiked[at] += 50 * sigma
+    clean = save_measured(MeasuredData(np.arange(v.size) / fs, v, y, "clean"), tmp_path / "clean.csv")
+    hurt = save_measured(MeasuredData(np.arange(v.size) / fs, v, spiked, "hurt"), tmp_path / "hurt.csv")
+    runs = {}
+    for path in (clean, hurt):
+        run = subprocess.run([sys.executable, "-m", "pysim.cli.main", "identify", str(path), "--json"],
+                             capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr
+        runs[path] = json.loads(run.stdout)["record_artefacts"]
+    assert runs[clean] == []
+    assert [(a["kind"], a["sample"]) for a in runs[hurt]] == [("spike", at)]
+    assert runs[hurt][0]["size_um"] == pytest.approx(50 * sigma, abs=5 * sigma)
+    text = subprocess.run([sys.executable, "-m", "pysim.cli.main", "identify", str(hurt)], capture_output=True,
+                          text=True)
+    assert text.returncode == 0 and "record artefacts" in text.stdout and f"spike at sample {at}" in text.stdout

@@ -103,6 +103,7 @@ def run(args) -> int:
         if transient:
             chosen = fit(args.model, transient)
     _require_that_the_displacement_follows(chosen, data)
+    artefacts = _record_artefacts(chosen, data, args)
     other = "cpi" if args.model == "mpi" else "mpi"
     results = {args.model: chosen, other: fit(other, transient)}
     results = {kind: results[kind] for kind in ("mpi", "cpi")}
@@ -128,11 +129,26 @@ def run(args) -> int:
             "constraints_active": chosen.constraints_active,
             "identifiability": chosen.identifiability(),
             "comparison": {kind: res.errors for kind, res in results.items()},
+            "record_artefacts": artefacts,
             "spec": args.out,
         }, indent=2))
     else:
-        print(format_table(chosen, results, data.source, args.out, transient))
+        print(format_table(chosen, results, data.source, args.out, transient, artefacts))
     return 0
+
+
+def _record_artefacts(chosen, data, args) -> list:
+    """Spikes, jumps and flat runs of the samples fitted (:mod:`pysim.diagnosis.artefacts`), samples
+    counted from the record's first.  Reported, not repaired: this is the fit of the record as given."""
+    from pysim.diagnosis.artefacts import find_artefacts
+
+    rows = chosen.fit_slice
+    found = find_artefacts(data.voltage_V[rows], data.displacement_um[rows], data.sample_rate_hz,
+                           n_operators=args.operators, model=args.model, operator=args.operator)
+    for a in found:
+        a["sample"] += rows.start
+        a["time_s"] = float(data.time_s[a["sample"]])
+    return found
 
 
 #: Least share of the displacement's variance (over the samples fitted) that the identified model must
@@ -159,7 +175,7 @@ def _require_that_the_displacement_follows(chosen, data) -> None:
                         "columns (--voltage-column, --displacement-column) and the sensor")
 
 
-def format_table(chosen, results, source, out, transient: int = 0) -> str:
+def format_table(chosen, results, source, out, transient: int = 0, artefacts=()) -> str:
     m = chosen.model
     lines = [f"{m.kind.upper()} model of {source}: {m.n_operators} {m.operator} operators, "
              f"fit on samples {chosen.fit_slice.start}..{chosen.fit_slice.stop - 1} "
@@ -184,6 +200,12 @@ def format_table(chosen, results, source, out, transient: int = 0) -> str:
                      f"(travel {chosen.operator_travel_V[i]:.3g} V)"
                      + (f"; weight density tied to operator {tied + 1}" if tied is not None else "; weight 0"))
     lines += [f"  condition number of the fit: {chosen.condition_number:.3g}"]
+    if artefacts:
+        listed = [f"{a['kind']} at sample {a['sample']}"
+                  + (f" ({a['size_um']:+.3g} µm)" if a["kind"] == "jump" else "") for a in artefacts]
+        lines += ["", "  record artefacts (no model of an actuator explains them; they are in this fit, "
+                  "`pysim diagnose` repairs spikes and jumps first): " + ", ".join(listed[:8])
+                  + (f", and {len(listed) - 8} more" if len(listed) > 8 else "")]
     lines += ["", f"  invertibility: {inv.message}", "",
               "  model   max err %   RMS err %   mean err %"]
     for kind, res in results.items():
