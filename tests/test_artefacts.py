@@ -107,7 +107,7 @@ def test_record_artefacts_needs_a_noise_level_and_a_record_long_enough():
     assert [a["kind"] for a in record_artefacts(v, y, y - 2.0 * v, 0.01, 1000.0)] == ["spike"]
 
 
-def test_the_diagnosis_names_the_actuator_not_a_jump_of_the_sensor():
+def test_the_diagnosis_names_the_actuator_not_a_jump_of_the_sensor(tmp_path):
     """Independent seed 4: no effect.  A 20 σ jump of the sensor's zero in the middle of the record
     is named creep or drift when it is kept; repaired first, nothing is named, and the report says
     where the jump was and that it was repaired."""
@@ -122,6 +122,12 @@ def test_the_diagnosis_names_the_actuator_not_a_jump_of_the_sensor():
     assert [(a["kind"], a["sample"], a["record"], a["repaired"]) for a in d.artefacts] == [
         ("jump", y.size // 2 - 1, "first", True)]
     assert f"between samples {y.size // 2 - 1} and {y.size // 2}" in d.why and "repaired" in d.why
+    # the report says it too, and its overview marks it (the plot is drawn with the jump's line)
+    from pysim.diagnosis.report import write_report
+
+    write_report(d, tmp_path / "report")
+    assert "1 jump of the displacement" in (tmp_path / "report" / "summary.md").read_text(encoding="utf-8")
+    assert (tmp_path / "report" / "overview.png").stat().st_size > 10_000
 
 
 def test_spikes_on_a_record_with_a_small_creep_no_longer_hide_it():

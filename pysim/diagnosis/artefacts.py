@@ -318,7 +318,8 @@ def _phrases(artefacts) -> list:
                            f"t = {a['time_s']:.4g} s" for a in s[:_LISTED]) + ("; …" if len(s) > _LISTED else "")
         parts.append(f"{len(s)} jump{'s' if len(s) > 1 else ''} of the displacement while the input is steady "
                      f"({listed}): the sensor's zero, its mount or the stage moved, which no effect of the "
-                     "catalogue does (a drift or creep named may be this)")
+                     "catalogue does" + ("" if all(a.get("repaired") for a in s) else
+                                         " (a drift or creep named may be this)"))
     for a in by_kind.get("clipped", []):
         parts.append(f"the displacement stays at its {a['at']} ({a['level_um']:.4g} µm) for {a['samples']} samples "
                      f"from sample {a['sample']} while the input moves by {a['input_moved_V']:.3g} V and the model by "

@@ -5,7 +5,8 @@
 - ``summary.md``: the cause, why it wins, the gain, every candidate's evidence,
   the residual statistics, and how to read each plot;
 - ``diagnosis.json``: the same as ``pysim diagnose --json``;
-- ``overview.png``: input, measured and simulated displacement, residuals over time;
+- ``overview.png``: input, measured and simulated displacement, residuals over time,
+  and the record's artefacts (spikes, jumps, flat runs) marked;
 - ``loops.png``: held-out hysteresis loops, measured against both models;
 - ``residual_vs_rate.png``, ``residual_vs_time_since_change.png``,
   ``cross_correlation.png``, ``spectrum.png``: the residual from each angle of
@@ -39,7 +40,8 @@ TITLE_LINE_CHARS = 100
 PLOTS = {
     "overview.png": "input (top), measured and simulated displacement (middle) and the residuals "
                     "(bottom) over the whole record; the shaded part is the last cross-validation block. A residual that "
-                    "the extended model flattens is the effect that was named.",
+                    "the extended model flattens is the effect that was named. Lines and bands mark what no "
+                    "model of an actuator explains (spikes, jumps, flat runs of the sensor), if any.",
     "loops.png": "held-out hysteresis loops: measured against the baseline and the extended model. "
                  "Loops that the baseline makes too narrow or too wide at some rates point to dynamics "
                  "or a delay; loops that move from cycle to cycle point to creep or drift.",
@@ -107,6 +109,28 @@ def _labels(d: Diagnosis):
             + f"cross-validated RMS {_explaining(d).rms_pct:.3g} %)")
 
 
+#: Colour of each kind of record artefact in the overview.
+ARTEFACT_COLOURS = {"spike": "tab:red", "jump": "tab:purple", "clipped": "tab:brown", "stuck": "tab:brown"}
+
+
+def _mark_artefacts(axes, d: Diagnosis):
+    """The first record's artefacts (:mod:`pysim.diagnosis.artefacts`): a line at a spike or a jump, a band
+    over a flat run, and one label per kind."""
+    labelled = set()
+    for a in (a for a in d.artefacts if a["record"] == "first"):
+        colour = ARTEFACT_COLOURS[a["kind"]]
+        label = None
+        if a["kind"] not in labelled:
+            label = a["kind"] + (" (repaired)" if a["repaired"] else "")
+            labelled.add(a["kind"])
+        for i, ax in enumerate(axes):
+            if a["kind"] in ("clipped", "stuck"):
+                ax.axvspan(a["time_s"], a["time_s"] + a["samples"] * d.sample_period_s, color=colour, alpha=0.3,
+                           lw=0, label=label if i == 0 else None)
+            else:
+                ax.axvline(a["time_s"], color=colour, lw=0.8, alpha=0.7, label=label if i == 0 else None)
+
+
 def plot_overview(d: Diagnosis, path: Path):
     fig = _canvas(11, 8)
     axes = fig.subplots(3, 1, sharex=True, height_ratios=[1, 1.4, 1.4])
@@ -125,7 +149,10 @@ def plot_overview(d: Diagnosis, path: Path):
                       + ("\n(the baseline fitted on the whole record, the extended model on it and the second record;"
                          "\n" if d.fitted_on_both_records else "\n(models fitted on the whole record; ")
                       + "every block is held out in turn for the scores, grey: the last block)", fontsize=10)
-    axes[1].plot(t, d.displacement_um, color=MEASURED_COLOUR, lw=0.8, label="measured")
+    repaired = any(a["repaired"] and a["record"] == "first" for a in d.artefacts)
+    axes[1].plot(t, d.displacement_um, color=MEASURED_COLOUR, lw=0.8,
+                 label="measured" + (" (spikes and jumps repaired)" if repaired else ""))
+    _mark_artefacts(axes[1:], d)
     axes[1].plot(t, d.baseline.prediction_um, color=BASE_COLOUR, lw=0.8, ls="--", label=base_label)
     if d.cause != "none":
         axes[1].plot(t, _explaining(d).prediction_um, color=EXTENDED_COLOUR, lw=0.8, ls=":", label=ext_label)
