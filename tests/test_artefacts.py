@@ -191,3 +191,21 @@ def test_cli_identify_reports_artefacts_in_the_samples_it_fits(tmp_path):
     text = subprocess.run([sys.executable, "-m", "pysim.cli.main", "identify", str(hurt)], capture_output=True,
                           text=True)
     assert text.returncode == 0 and "record artefacts" in text.stdout and f"spike at sample {at}" in text.stdout
+
+
+def test_a_second_record_logged_faster_has_its_artefacts_said_in_its_own_samples():
+    """A second record logged at twice the first's rate is used at every 2nd sample; a spike on a used
+    sample is found there, and reported at its sample and time in the record as logged."""
+    pair = independent_records.make_pair(4)
+    fs = pair.train.sample_rate_hz
+    t_s = np.arange(pair.validation.voltage_V.size) / fs
+    t2_s = np.arange(int(t_s[-1] * 2 * fs + 1e-9) + 1) / (2 * fs)
+    other = independent_records.respond(pair, np.interp(t2_s, t_s, pair.validation.voltage_V), noise_seed=3,
+                                        sample_rate_hz=2 * fs)
+    y2 = other.displacement_um.copy()
+    at = 2 * _quiet_samples(other.voltage_V[::2], 1, np.random.default_rng(4))[0]
+    y2[at] += 40 * pair.truth.noise_sigma_um
+    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs, validate=(other.voltage_V, y2, 2 * fs))
+    assert [(a["kind"], a["record"], a["sample"]) for a in d.artefacts] == [("spike", "second", at)]
+    assert d.artefacts[0]["time_s"] == pytest.approx(at / (2 * fs)) and d.artefacts[0]["repaired"]
+    assert d.cause == "none", d.why

@@ -82,7 +82,6 @@ Procedure (``diagnose``):
 """
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 from dataclasses import dataclass, field, replace
@@ -488,6 +487,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
             resampled = (f"{validate_source or 'the second record'} was sampled at {float(rate2):g} Hz and is "
                          f"used at {float(sample_rate_hz):g} Hz, the rate of {source or 'the first record'}: {how}")
             _check_record(v2, y2, sample_rate_hz, where2)
+        second_every = max(1, round(float(rate2) / float(sample_rate_hz)))   # its samples used: every m-th
+        second_rate_hz = float(rate2)
         rate2 = sample_rate_hz
     # spikes, jumps and flat runs no model of the actuator explains, found on each record's plain fit
     # first (a jump looks like drift or creep to every candidate); the records' roles are the user's
@@ -496,7 +497,10 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         fit_options = {"n_operators": n_operators, "model": model, "operator": operator}
         artefacts = [dict(a, record="first") for a in find_artefacts(v, y, sample_rate_hz, **fit_options)]
         if validate is not None:
-            artefacts += [dict(a, record="second") for a in find_artefacts(v2, y2, sample_rate_hz, **fit_options)]
+            # said in the second record's own samples and time (it may be used at every m-th sample)
+            artefacts += [dict(a, record="second", sample=a["sample"] * second_every,
+                               samples=a["samples"] * second_every, time_s=a["sample"] * second_every / second_rate_hz)
+                          for a in find_artefacts(v2, y2, sample_rate_hz, **fit_options)]
         for a in artefacts:
             a["repaired"] = bool(repair_artefacts and a["kind"] in REPAIRABLE)
             if a["record"] == "first" and time_s is not None and np.size(time_s) == v.size:
@@ -505,14 +509,15 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
             y = repaired_displacement(y, [a for a in artefacts if a["repaired"] and a["record"] == "first"])
             given = (v, y, sample_rate_hz)
             if validate is not None:
-                y2 = repaired_displacement(y2, [a for a in artefacts if a["repaired"] and a["record"] == "second"])
+                y2 = repaired_displacement(y2, [dict(a, sample=a["sample"] // second_every) for a in artefacts
+                                                if a["repaired"] and a["record"] == "second"])
 
     def reported(result):
         """The result with the artefacts found here, and their sentence in ``why``."""
         if not artefacts:
             return result
         sentence = artefacts_sentence(artefacts, source or "the first record", validate_source or "the second record")
-        return dataclasses.replace(result, artefacts=artefacts, why=f"{result.why}. {sentence}")
+        return replace(result, artefacts=artefacts, why=f"{result.why}. {sentence}")
 
     T = 1.0 / float(sample_rate_hz)
     time = np.arange(v.size) * T if time_s is None else np.asarray(time_s, dtype=float).ravel()
@@ -848,16 +853,17 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         if turned is not None and turned.cause in EFFECTS:
             return reported(turned)
     return reported(Diagnosis(cause=cause, split=split, sample_period_s=T, noise_um=noise, baseline=baseline,
-                     candidates=candidates, extended=extended, statistics=statistics,
-                     reasons=_reasons(candidates, stats, cv_verdict.get("steps")), why=why, time_s=time, voltage_V=v,
-                     displacement_um=y, source=source, causes=tuple(causes), excitation=excitation,
-                     richer=richer, folds=[{"train_samples": int(t.size), "scored_samples": int(s.size)}
-                                           for t, s in folds],
-                     scored_samples=int(np.count_nonzero(mask)), cross_validation_cause=cv_verdict["cause"],
-                     cross_validation_causes=tuple(cv_verdict["causes"]), validation=validation,
-                     excitation_plan=plan, start_excluded_samples=start,
-                     records_swapped=bool(_swap_reason), swap_reason=_swap_reason,
-                     steps=cv_verdict.get("steps"), shape=shape))
+                              candidates=candidates, extended=extended, statistics=statistics,
+                              reasons=_reasons(candidates, stats, cv_verdict.get("steps")), why=why, time_s=time,
+                              voltage_V=v,
+                              displacement_um=y, source=source, causes=tuple(causes), excitation=excitation,
+                              richer=richer, folds=[{"train_samples": int(t.size), "scored_samples": int(s.size)}
+                                                    for t, s in folds],
+                              scored_samples=int(np.count_nonzero(mask)), cross_validation_cause=cv_verdict["cause"],
+                              cross_validation_causes=tuple(cv_verdict["causes"]), validation=validation,
+                              excitation_plan=plan, start_excluded_samples=start,
+                              records_swapped=bool(_swap_reason), swap_reason=_swap_reason,
+                              steps=cv_verdict.get("steps"), shape=shape))
 
 
 def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -> str:
