@@ -14,6 +14,9 @@ the plain fit's residual (measured − simulated displacement):
     samples around it quiet, while the input is steady (no input step in the
     20 samples before and 5 after, so a delayed or lagging response to an
     input step is never one): the sensor's zero, its mount or the stage moved.
+    It stays for the rest of the record (to the next jump), and there are
+    few: an actuator that steps where its relays switch steps back on the
+    way down, and does so every cycle.
 ``flat``
     The displacement repeats exactly the same value for many samples while
     the fitted model moves by half the limit below or more, and misses the
@@ -41,7 +44,7 @@ from pysim.diagnosis.residuals import noise_sigma, quantum
 from pysim.identification.errors import IdentificationError
 from pysim.identification.identify import identify
 
-__all__ = ["ARTEFACT_SIGMAS", "FLAT_RUN_SAMPLES", "REPAIRABLE", "record_artefacts", "find_artefacts",
+__all__ = ["ARTEFACT_SIGMAS", "FLAT_RUN_SAMPLES", "MAX_JUMPS", "REPAIRABLE", "record_artefacts", "find_artefacts",
            "repaired_displacement", "artefacts_sentence"]
 
 #: An artefact stands this many noise σ out of what the noise makes.
@@ -53,6 +56,8 @@ FLAT_RUN_SAMPLES = 20
 _AFTER_INPUT_STEP, _BEFORE_INPUT_STEP = 20, 5
 #: A jump's neighbours: the residual's other steps within this many samples are small.
 _QUIET = 5
+#: More jumps than this in one record are the actuator's own steps (see :func:`_persistent`).
+MAX_JUMPS = 3
 #: A jump's size is measured on up to this many samples on either side ...
 _SIZE_WINDOW = 200
 #: ... and again on the fit of the record repaired by it, this many times.
@@ -108,7 +113,7 @@ def record_artefacts(voltage_V, displacement_um, residual_um, noise_um: float, s
     # a frozen reading that comes back steps to the true displacement: that step is the run's end
     ends = {b for a in flat for b in (a["sample"] - 1, a["sample"] + a["samples"] - 1)}
     jumps = [a for a in _jumps(r, limit, near_step) if not ends & {a["sample"] - 1, a["sample"], a["sample"] + 1}]
-    found = _spikes(r, limit, near_step) + jumps + flat
+    found = _spikes(r, limit, near_step) + _persistent(jumps, r) + flat
     for a in found:
         a["time_s"] = a["sample"] / sample_rate_hz
         a["size_over_noise"] = abs(a["size_um"]) / noise_um
@@ -227,6 +232,28 @@ def _jumps(r, limit, near_step) -> list:
         out.append({"kind": "jump", "sample": int(k), "samples": 2,
                     "size_um": _jump_size(r, k, big, near_step, shift)})
     return out
+
+
+def _persistent(jumps, r) -> list:
+    """The jumps that are the sensor's, not the actuator's.
+
+    A sensor's zero or mount moves now and then, and stays moved: the residual's level over the whole
+    stretch after the jump (to the next one) differs from the stretch before by at least half the
+    jump.  An actuator whose hysteresis is made of a few relays (a Preisach actuator with coarse
+    switching, a stick-slip stage) steps at the voltages where they switch, every time the input
+    passes them, and steps back on the way down: many steps, each undone within its stretch.  More
+    than :data:`MAX_JUMPS` in a record are taken as the actuator's, and none is reported.
+    """
+    if len(jumps) > MAX_JUMPS:
+        return []
+    edges = [-1] + [a["sample"] for a in jumps] + [r.size - 1]
+    kept = []
+    for i, a in enumerate(jumps):
+        before = np.median(r[edges[i] + 1:edges[i + 1] + 1])
+        after = np.median(r[edges[i + 1] + 1:edges[i + 2] + 1])
+        if (after - before) * np.sign(a["size_um"]) >= 0.5 * abs(a["size_um"]):
+            kept.append(a)
+    return kept
 
 
 def _jump_size(r, k, big, near_step, first_guess) -> float:
