@@ -14,9 +14,9 @@ the plain fit's residual (measured − simulated displacement):
     samples around it quiet, while the input is steady (no input step in the
     20 samples before and 5 after, so a delayed or lagging response to an
     input step is never one): the sensor's zero, its mount or the stage moved.
-    It stays for the rest of the record (to the next jump), and there are
-    few: an actuator that steps where its relays switch steps back on the
-    way down, and does so every cycle.
+    There are few: an actuator that steps where its relays switch steps
+    back on the way down, and does so every cycle (more than
+    :data:`MAX_JUMPS` are taken as the actuator's).
 ``flat``
     The displacement repeats exactly the same value for many samples while
     the fitted model moves by half the limit below or more, and misses the
@@ -56,7 +56,7 @@ FLAT_RUN_SAMPLES = 20
 _AFTER_INPUT_STEP, _BEFORE_INPUT_STEP = 20, 5
 #: A jump's neighbours: the residual's other steps within this many samples are small.
 _QUIET = 5
-#: More jumps than this in one record are the actuator's own steps (see :func:`_persistent`).
+#: More jumps than this in one record are the actuator's own steps (see :func:`_actuators_own`).
 MAX_JUMPS = 3
 #: A jump's size is measured on up to this many samples on either side ...
 _SIZE_WINDOW = 200
@@ -113,7 +113,7 @@ def record_artefacts(voltage_V, displacement_um, residual_um, noise_um: float, s
     # a frozen reading that comes back steps to the true displacement: that step is the run's end
     ends = {b for a in flat for b in (a["sample"] - 1, a["sample"] + a["samples"] - 1)}
     jumps = [a for a in _jumps(r, limit, near_step) if not ends & {a["sample"] - 1, a["sample"], a["sample"] + 1}]
-    found = _spikes(r, limit, near_step) + _persistent(jumps, r) + flat
+    found = _spikes(r, limit, near_step) + _actuators_own(jumps) + flat
     for a in found:
         a["time_s"] = a["sample"] / sample_rate_hz
         a["size_over_noise"] = abs(a["size_um"]) / noise_um
@@ -234,26 +234,17 @@ def _jumps(r, limit, near_step) -> list:
     return out
 
 
-def _persistent(jumps, r) -> list:
-    """The jumps that are the sensor's, not the actuator's.
+def _actuators_own(jumps) -> list:
+    """The jumps, unless there are so many that they are the actuator's rather than the sensor's.
 
-    A sensor's zero or mount moves now and then, and stays moved: the residual's level over the whole
-    stretch after the jump (to the next one) differs from the stretch before by at least half the
-    jump.  An actuator whose hysteresis is made of a few relays (a Preisach actuator with coarse
-    switching, a stick-slip stage) steps at the voltages where they switch, every time the input
-    passes them, and steps back on the way down: many steps, each undone within its stretch.  More
-    than :data:`MAX_JUMPS` in a record are taken as the actuator's, and none is reported.
+    A sensor's zero or mount moves now and then.  An actuator whose hysteresis is made of a few relays
+    (a Preisach actuator with coarse switching, a stick-slip stage) steps at the voltages where they
+    switch, every time the input passes them, and steps back on the way down: many steps.  More than
+    :data:`MAX_JUMPS` in a record are taken as the actuator's, and none is reported.  (A test that
+    each jump stays for the whole stretch after it also threw out sensor jumps that the plain fit
+    had partly taken into its weights.)
     """
-    if len(jumps) > MAX_JUMPS:
-        return []
-    edges = [-1] + [a["sample"] for a in jumps] + [r.size - 1]
-    kept = []
-    for i, a in enumerate(jumps):
-        before = np.median(r[edges[i] + 1:edges[i + 1] + 1])
-        after = np.median(r[edges[i + 1] + 1:edges[i + 2] + 1])
-        if (after - before) * np.sign(a["size_um"]) >= 0.5 * abs(a["size_um"]):
-            kept.append(a)
-    return kept
+    return [] if len(jumps) > MAX_JUMPS else jumps
 
 
 def _jump_size(r, k, big, near_step, first_guess) -> float:
