@@ -144,7 +144,8 @@ def find_artefacts(voltage_V, displacement_um, sample_rate_hz: float, **fit_opti
     except IdentificationError:
         return []
     residual = y - fit.prediction_um
-    found = record_artefacts(v, y, residual, noise_sigma(residual, quantum(y)), sample_rate_hz)
+    noise = noise_sigma(residual, quantum(y))
+    found = record_artefacts(v, y, residual, noise, sample_rate_hz)
     jumps = [a for a in found if a["kind"] == "jump"]
     near_step = _near_input_steps(v)
     steps = np.array([a["sample"] for a in jumps], dtype=int)
@@ -157,7 +158,7 @@ def find_artefacts(voltage_V, displacement_um, sample_rate_hz: float, **fit_opti
         except IdentificationError:
             break
         for a in jumps:
-            a["size_um"] += _jump_size(residual, a["sample"], steps, near_step, 0.0)
+            a["size_um"] += _jump_size(residual, a["sample"], steps, near_step, noise)
     return found
 
 
@@ -230,7 +231,7 @@ def _jumps(r, limit, near_step) -> list:
         if abs(shift) < 0.7 * abs(d[k]) or abs(shift) < limit:
             continue
         out.append({"kind": "jump", "sample": int(k), "samples": 2,
-                    "size_um": _jump_size(r, k, big, near_step, shift)})
+                    "size_um": _jump_size(r, k, big, near_step, limit / ARTEFACT_SIGMAS)})
     return out
 
 
@@ -247,11 +248,17 @@ def _actuators_own(jumps) -> list:
     return [] if len(jumps) > MAX_JUMPS else jumps
 
 
-def _jump_size(r, k, big, near_step, first_guess) -> float:
-    """The jump between samples k and k + 1 from a straight line through the residual on either side
-    (up to ``_SIZE_WINDOW`` samples, not past another large step, not near an input step), both taken
-    to k + ½: a repair that leaves a step of a fraction of σ over half a record would still be seen
-    as drift.  The first guess (five samples each side) when a side has too few samples."""
+def _jump_size(r, k, big, near_step, noise_um) -> float:
+    """The jump between samples k and k + 1.
+
+    From a straight line through the residual on either side (up to ``_SIZE_WINDOW`` samples, not
+    past another large step, not near an input step), both taken to k + ½: a repair that leaves a
+    step of a fraction of σ over half a record would still be seen as drift.  Where the residual
+    around has a shape of its own (a slew limit's or a misfit's), the lines miss the step: when they
+    differ from the step of the five samples' means on either side by more than three of that
+    step's standard errors, or a side has fewer than 20 samples, that step is the size.
+    """
+    local = float(np.mean(r[k + 1:k + 1 + _QUIET]) - np.mean(r[max(k + 1 - _QUIET, 0):k + 1]))
     before, after = big[big < k], big[big > k]
     lo = max(k + 1 - _SIZE_WINDOW, int(before[-1]) + 1 if before.size else 0)
     hi = min(k + 1 + _SIZE_WINDOW, int(after[0]) + 1 if after.size else r.size)
@@ -259,10 +266,11 @@ def _jump_size(r, k, big, near_step, first_guess) -> float:
     for rows in (np.arange(lo, k + 1), np.arange(k + 1, hi)):
         rows = rows[~near_step[rows]]
         if rows.size < 20:
-            return first_guess
+            return local
         slope, level = np.polyfit(rows - (k + 0.5), r[rows], 1)
         ends.append(level)
-    return float(ends[1] - ends[0])
+    lines = float(ends[1] - ends[0])
+    return local if abs(lines - local) > 3.0 * noise_um * math.sqrt(2.0 / _QUIET) else lines
 
 
 def _flat_runs(v, y, r, limit) -> list:
