@@ -147,9 +147,11 @@ def find_artefacts(voltage_V, displacement_um, sample_rate_hz: float, **fit_opti
     noise = noise_sigma(residual, quantum(y))
     found = record_artefacts(v, y, residual, noise, sample_rate_hz)
     jumps = [a for a in found if a["kind"] == "jump"]
+    if not jumps:
+        return found
     near_step = _near_input_steps(v)
     steps = np.array([a["sample"] for a in jumps], dtype=int)
-    for _ in range(_SIZE_REFITS if jumps else 0):
+    for _ in range(_SIZE_REFITS):
         # the fit that saw a jump took part of it into its weights and offset: measured again on the
         # fit of the repaired record, what is left of each is added to it
         repaired = repaired_displacement(y, found)

@@ -111,7 +111,7 @@ from pysim.diagnosis.second_record import (RolesStand, best_fitted_on_both_recor
 from pysim.diagnosis.shape import correct_for_shape
 from pysim.diagnosis.steps import shown_by_steps
 from pysim.diagnosis.validation import score_on_record
-from pysim.identification.data import checked_sample_rate, resample_record
+from pysim.identification.data import checked_sample_rate, resample_record, resampling_stride
 from pysim.identification.errors import DataError
 from pysim.identification.identify import IdentificationError, identify, require_rising, start_transient
 
@@ -487,7 +487,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
             resampled = (f"{validate_source or 'the second record'} was sampled at {float(rate2):g} Hz and is "
                          f"used at {float(sample_rate_hz):g} Hz, the rate of {source or 'the first record'}: {how}")
             _check_record(v2, y2, sample_rate_hz, where2)
-        second_every = max(1, round(float(rate2) / float(sample_rate_hz)))   # its samples used: every m-th
+        second_every = resampling_stride(rate2, sample_rate_hz)
         second_rate_hz = float(rate2)
         rate2 = sample_rate_hz
     # spikes, jumps and flat runs no model of the actuator explains, found on each record's plain fit
@@ -495,22 +495,22 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     artefacts = []
     if not _swap_reason:
         fit_options = {"n_operators": n_operators, "model": model, "operator": operator}
-        artefacts = [dict(a, record="first") for a in find_artefacts(v, y, sample_rate_hz, **fit_options)]
-        if validate is not None:
-            # said in the second record's own samples and time (it may be used at every m-th sample)
-            artefacts += [dict(a, record="second", sample=a["sample"] * second_every,
-                               samples=a["samples"] * second_every, time_s=a["sample"] * second_every / second_rate_hz)
-                          for a in find_artefacts(v2, y2, sample_rate_hz, **fit_options)]
-        for a in artefacts:
-            a["repaired"] = bool(repair_artefacts and a["kind"] in REPAIRABLE)
-            if a["record"] == "first" and time_s is not None and np.size(time_s) == v.size:
-                a["time_s"] = float(np.ravel(time_s)[a["sample"]])
-        if any(a["repaired"] for a in artefacts):
-            y = repaired_displacement(y, [a for a in artefacts if a["repaired"] and a["record"] == "first"])
+        first_found = find_artefacts(v, y, sample_rate_hz, **fit_options)
+        second_found = [] if validate is None else find_artefacts(v2, y2, sample_rate_hz, **fit_options)
+        if repair_artefacts and first_found:
+            y = repaired_displacement(y, first_found)        # flat runs are left as they are
             given = (v, y, sample_rate_hz)
-            if validate is not None:
-                y2 = repaired_displacement(y2, [dict(a, sample=a["sample"] // second_every) for a in artefacts
-                                                if a["repaired"] and a["record"] == "second"])
+        if repair_artefacts and second_found:
+            y2 = repaired_displacement(y2, second_found)
+        first_times = np.ravel(time_s) if time_s is not None and np.size(time_s) == v.size else None
+        artefacts = [dict(a, record="first", repaired=bool(repair_artefacts and a["kind"] in REPAIRABLE),
+                          time_s=a["time_s"] if first_times is None else float(first_times[a["sample"]]))
+                     for a in first_found]
+        # the second record's said in its own samples and time (it may be used at every m-th sample)
+        artefacts += [dict(a, record="second", repaired=bool(repair_artefacts and a["kind"] in REPAIRABLE),
+                           sample=a["sample"] * second_every, samples=a["samples"] * second_every,
+                           time_s=a["sample"] * second_every / second_rate_hz)
+                      for a in second_found]
 
     def reported(result):
         """The result with the artefacts found here, and their sentence in ``why``."""

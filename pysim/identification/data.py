@@ -43,9 +43,8 @@ from pysim.identification.errors import DataError, IdentificationError
 
 __all__ = [
     "COLUMNS", "MeasuredData", "load_measured", "load_reference", "save_measured", "require_samples",
-    "estimate_sample_rate", "require_even_sampling", "resample_record", "checked_sample_rate", "EVEN_SAMPLING_SPREAD",
-    "shipped_dataset",
-    "SHIPPED_DATASETS",
+    "estimate_sample_rate", "require_even_sampling", "resample_record", "resampling_stride", "checked_sample_rate",
+    "EVEN_SAMPLING_SPREAD", "shipped_dataset", "SHIPPED_DATASETS",
 ]
 
 #: The standard column names, in the order :func:`save_measured` writes them.
@@ -241,6 +240,19 @@ def checked_sample_rate(sample_rate_hz, what: str = "sample rate", error: type =
     return float(sample_rate_hz)
 
 
+def resampling_stride(from_rate_hz: float, to_rate_hz: float) -> int:
+    """Every how many samples of a record at ``from_rate_hz`` :func:`resample_record` keeps one (at
+    least 1): the ratio of the rates to the nearest whole number.  Sample ``k`` used is sample
+    ``k * stride`` of the record as logged.
+
+    Examples
+    --------
+    >>> resampling_stride(6000.0, 2000.0), resampling_stride(2000.0, 2000.0 * (1 + 1e-6))
+    (3, 1)
+    """
+    return max(1, round(float(from_rate_hz) / float(to_rate_hz)))
+
+
 def resample_record(voltage_V, displacement_um, from_rate_hz: float, to_rate_hz: float) -> tuple:
     """The samples of a record taken at ``from_rate_hz`` that fall on the grid of ``to_rate_hz``.
 
@@ -296,7 +308,7 @@ def resample_record(voltage_V, displacement_um, from_rate_hz: float, to_rate_hz:
         raise DataError(f"a record to resample needs at least 2 samples of voltage and displacement each "
                         f"(got {v.size} and {y.size})")
     ratio = float(from_rate_hz) / float(to_rate_hz)        # input samples per output sample
-    m = max(1, round(ratio))
+    m = resampling_stride(from_rate_hz, to_rate_hz)
     # the misplacement, in input samples, of the last kept sample when the ratio is taken as m
     if abs(m / ratio - 1.0) * (v.size - 1) >= 0.5:
         raise DataError(f"a record at {float(from_rate_hz):g} Hz cannot be used at {float(to_rate_hz):g} Hz: only "
