@@ -25,6 +25,7 @@ from pysim.identification.data import (
     load_measured,
     require_even_sampling,
     require_samples,
+    common_sample_rate,
     resample_record,
     save_measured,
     shipped_dataset,
@@ -386,6 +387,34 @@ def test_resample_record_keeps_the_samples_on_the_grid_and_invents_none():
         with pytest.raises(DataError) as refused:
             resample_record(ramp, noisy, from_hz, to_hz)
         assert str(refused.value).startswith(f"a record at {from_hz:g} Hz cannot be used at {to_hz:g} Hz")
+
+
+def test_common_sample_rate_is_the_highest_grid_both_records_fall_on():
+    """Checked against the definition by brute force: the rate returned is the first record's over a
+    whole m, the second record's samples fall on it by the resampling rule, and no smaller m would do."""
+    def fits(second_hz, n2, rate_hz):
+        try:
+            resample_record(np.zeros(n2), np.zeros(n2), second_hz, rate_hz)
+        except DataError:
+            return False
+        return True
+
+    cases = [(10000.0, 20000.0), (10000.0, 10000.0), (10000.0, 5000.0), (10000.0, 4000.0), (5000.0, 2000.0),
+             (2000.0, 3000.0), (2000.0, 2000.0 * (1 + 0.3 / 5000)), (1000.0, 125.0)]
+    for first_hz, second_hz in cases:
+        rate = common_sample_rate(first_hz, 4000, second_hz, 5000)
+        m = first_hz / rate
+        assert m == round(m) and fits(second_hz, 5000, rate), (first_hz, second_hz, rate)
+        assert not any(fits(second_hz, 5000, first_hz / k) for k in range(1, round(m))), (first_hz, second_hz)
+        # exact rates of whole numbers: the grid is their greatest common divisor when that is reachable
+        if second_hz == round(second_hz):
+            gcd = float(np.gcd(int(first_hz), int(second_hz)))
+            if first_hz / gcd <= 10:
+                assert rate == gcd, (first_hz, second_hz, rate)
+    # 48 kHz and 44.1 kHz share 300 Hz, a 160th of the first: too much of the first record thrown away
+    with pytest.raises(DataError) as refused:
+        common_sample_rate(48000.0, 4000, 44100.0, 5000)
+    assert str(refused.value).startswith("records at 48000 Hz and 44100 Hz have no common rate down to 4800 Hz")
 
 
 def test_one_sample_rate_check_serves_the_loader_the_diagnosis_and_the_excitation(tmp_path):

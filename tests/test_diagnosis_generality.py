@@ -963,37 +963,78 @@ def test_an_mpi_record_gets_no_shape_correction():
         assert d.shape == {}, (seed, d.shape)
 
 
-def test_a_second_record_at_a_multiple_of_the_rate_is_used_at_every_mth_sample_and_another_rate_refused():
+def _logged_at(pair, rate_hz, noise_seed=7):
+    """The second record's voltage played on the true actuator and logged at ``rate_hz`` (the
+    generator's ADC samples the continuous response; between samples the voltage is linear)."""
+    import independent_records
+
+    fs = pair.train.sample_rate_hz
+    t_s = np.arange(pair.validation.voltage_V.size) / fs
+    t2_s = np.arange(int(t_s[-1] * rate_hz + 1e-9) + 1) / rate_hz
+    return independent_records.respond(pair, np.interp(t2_s, t_s, pair.validation.voltage_V),
+                                       noise_seed=noise_seed, sample_rate_hz=rate_hz)
+
+
+def test_a_second_record_at_a_multiple_of_the_rate_is_used_at_every_mth_sample():
     import independent_records
 
     pair = independent_records.make_pair(6)         # a low-pass before the hysteresis, 2 kHz
     fs, first = pair.train.sample_rate_hz, pair.train
-    t_s = np.arange(pair.validation.voltage_V.size) / fs
     found = {}
     for factor in (1, 2):
-        # the same voltage played on the true actuator and logged at fs and at 2 fs (the generator's
-        # ADC samples the continuous response; between samples the voltage is linear in both)
-        rate = factor * fs
-        t2_s = np.arange(int(t_s[-1] * rate + 1e-9) + 1) / rate
-        other = independent_records.respond(pair, np.interp(t2_s, t_s, pair.validation.voltage_V), noise_seed=7,
-                                            sample_rate_hz=rate)
+        other = _logged_at(pair, factor * fs)
         found[factor] = diagnose(first.voltage_V, first.displacement_um, fs, source="first.csv",
-                                 validate=(other.voltage_V, other.displacement_um, rate),
+                                 validate=(other.voltage_V, other.displacement_um, factor * fs),
                                  validate_source="other.csv")
     assert found[1].cause == found[2].cause == pair.truth.effect_parameters["name"] == "rate_dependent_hysteresis"
     assert found[1].validation["resampled"] == ""
     assert found[2].validation["resampled"] == ("other.csv was sampled at 4000 Hz and is used at 2000 Hz, the rate "
                                                 "of first.csv: every 2nd sample")
     assert found[2].validation["resampled"] in found[2].validation["note"]
-    # a slower second record, or one at another ratio, would need samples invented: one message, no fit
+
+
+@pytest.mark.parametrize("factor, first_every, second_every", [(0.5, 2, 1), (1.5, 2, 3)])
+def test_a_slower_second_record_puts_both_on_the_highest_common_rate(factor, first_every, second_every):
+    """A second record logged slower than the first, or at a rate neither a multiple nor a fraction of
+    it, is not refused: both are used at the highest rate on whose grid both records' samples fall
+    (every m-th sample of each), and the verdict there is the one of the same records cut down to that
+    rate by hand before they are given (a second way to the same samples)."""
+    import independent_records
+
+    pair = independent_records.make_pair(6)         # a low-pass before the hysteresis, 2 kHz
+    fs, first = pair.train.sample_rate_hz, pair.train
+    other = _logged_at(pair, factor * fs)
+    time_s = 3.0 + np.arange(first.voltage_V.size) / fs     # a logger's clock, not starting at zero
+    d = diagnose(first.voltage_V, first.displacement_um, fs, time_s=time_s, source="first.csv",
+                 validate=(other.voltage_V, other.displacement_um, factor * fs), validate_source="other.csv")
+    common = fs / first_every
+    by_hand = diagnose(first.voltage_V[::first_every], first.displacement_um[::first_every], common,
+                       validate=(other.voltage_V[::second_every], other.displacement_um[::second_every], common))
+    assert d.cause == by_hand.cause == pair.truth.effect_parameters["name"], d.why
+    assert d.extended.rms_pct == pytest.approx(by_hand.extended.rms_pct, rel=1e-9)
+    assert d.extended.model.sample_period_s == pytest.approx(1.0 / common)
+    assert d.time_s.size == by_hand.time_s.size and d.time_s[1] - d.time_s[0] == pytest.approx(first_every / fs)
+    assert d.time_s[0] >= 3.0
+    said = d.validation["resampled"]
+    assert said.startswith(f"first.csv was sampled at {fs:g} Hz and is used at {common:g} Hz"), said
+    assert (f"other.csv was sampled at {factor * fs:g} Hz" in said) == (second_every > 1), said
+
+
+def test_a_second_record_at_a_rate_without_a_common_grid_is_refused():
+    """Rates whose samples meet on no grid down to a tenth of the first record's rate would need
+    samples invented: one message naming the second record and both rates, no fit."""
+    import independent_records
+
+    pair = independent_records.make_pair(6)
+    fs, first = pair.train.sample_rate_hz, pair.train
     v2, y2 = pair.validation.voltage_V, pair.validation.displacement_um
-    for rate in (1.5 * fs, fs / 2):
-        with pytest.raises(ValueError) as refused:
-            diagnose(first.voltage_V, first.displacement_um, fs, source="first.csv", validate=(v2, y2, rate),
-                     validate_source="other.csv")
-        message = str(refused.value)
-        assert message.startswith(f"other.csv: a record at {rate:g} Hz cannot be used at {fs:g} Hz"), message
-        assert message.endswith("(the models run at the sample period of first.csv)") and "\n" not in message
+    rate = 0.61725 * fs                            # no m <= 10 brings the two grids together
+    with pytest.raises(ValueError) as refused:
+        diagnose(first.voltage_V, first.displacement_um, fs, source="first.csv", validate=(v2, y2, rate),
+                 validate_source="other.csv")
+    message = str(refused.value)
+    assert message.startswith(f"other.csv: records at {fs:g} Hz and {rate:g} Hz have no common rate"), message
+    assert "\n" not in message
 
 
 # ------------------------------------------------------------ ambiguity

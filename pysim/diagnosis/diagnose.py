@@ -111,7 +111,8 @@ from pysim.diagnosis.second_record import (RolesStand, best_fitted_on_both_recor
 from pysim.diagnosis.shape import correct_for_shape
 from pysim.diagnosis.steps import shown_by_steps
 from pysim.diagnosis.validation import score_on_record
-from pysim.identification.data import checked_sample_rate, resample_record, resampling_stride
+from pysim.identification.data import (checked_sample_rate, common_sample_rate, resample_record,
+                                       resampling_stride)
 from pysim.identification.errors import DataError
 from pysim.identification.identify import IdentificationError, identify, require_rising, start_transient
 
@@ -428,8 +429,13 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         response to each step): those shapes are searched there, with the
         first record's hysteresis.  A second record sampled a whole number of
         times faster is used at every m-th sample
-        (:func:`pysim.identification.data.resample_record`), and the report
-        says so; rates that differ by a logger's rounding count as one.
+        (:func:`pysim.identification.data.resample_record`); one sampled
+        slower, or at a rate neither a multiple nor a fraction of the first's,
+        puts both records on the highest rate their samples share
+        (:func:`pysim.identification.data.common_sample_rate`: every m-th
+        sample of each, the first's at most every 10th), and the models run
+        at that rate.  The report says so; rates that differ by a logger's
+        rounding count as one.
     name : str
         Name of the extended model (a C identifier).
     source, validate_source : str
@@ -469,6 +475,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     where = f"{source}: " if source else ""
     _check_record(v, y, sample_rate_hz, where)
     resampled = ""
+    first_every, first_rate_hz = 1, float(sample_rate_hz)
     if validate is not None:
         try:
             v2, y2, rate2 = validate
@@ -477,16 +484,32 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         v2, y2 = np.asarray(v2, dtype=float).ravel(), np.asarray(y2, dtype=float).ravel()
         where2 = f"{validate_source}: " if validate_source else "second record: "
         _check_record(v2, y2, rate2, where2)
-        # the extended models run at one sample period, the first record's (the one a spec is written for)
+        # the extended models run at one sample period: the first record's (the one a spec is written
+        # for), or, for a slower second record, the highest rate both records' samples fall on
         try:
-            v2, y2, how = resample_record(v2, y2, float(rate2), float(sample_rate_hz))
+            common_rate_hz = common_sample_rate(sample_rate_hz, v.size, rate2, v2.size)
+            v2, y2, how = resample_record(v2, y2, float(rate2), common_rate_hz)
         except DataError as exc:
-            raise DiagnosisError(f"{where2}{exc} (the models run at the sample period of "
-                                 f"{source or 'the first record'})") from exc
+            raise DiagnosisError(f"{where2}{exc}") from exc
+        notes = []
+        if common_rate_hz != first_rate_hz:
+            first_every = resampling_stride(first_rate_hz, common_rate_hz)
+            if time_s is not None:
+                time_s = np.ravel(time_s)[::first_every] if np.size(time_s) == v.size else None
+            v, y, first_how = resample_record(v, y, first_rate_hz, common_rate_hz)
+            sample_rate_hz = common_rate_hz
+            _check_record(v, y, sample_rate_hz, where)
+            notes.append(f"{source or 'the first record'} was sampled at {first_rate_hz:g} Hz and is used at "
+                         f"{common_rate_hz:g} Hz, the highest rate on which both records' samples fall: "
+                         f"{first_how} (a stage faster than a sample there is not resolved)")
         if how != "as recorded":
-            resampled = (f"{validate_source or 'the second record'} was sampled at {float(rate2):g} Hz and is "
-                         f"used at {float(sample_rate_hz):g} Hz, the rate of {source or 'the first record'}: {how}")
+            notes.append(f"{validate_source or 'the second record'} was sampled at {float(rate2):g} Hz and is "
+                         f"used at {common_rate_hz:g} Hz" + ("" if notes else
+                                                            f", the rate of {source or 'the first record'}")
+                         + f": {how}")
             _check_record(v2, y2, sample_rate_hz, where2)
+        resampled = "; ".join(notes)
+        given = (v, y, sample_rate_hz)
         second_every = resampling_stride(rate2, sample_rate_hz)
         second_rate_hz = float(rate2)
         rate2 = sample_rate_hz
@@ -503,10 +526,12 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         if repair_artefacts and second_found:
             y2 = repaired_displacement(y2, second_found)
         first_times = np.ravel(time_s) if time_s is not None and np.size(time_s) == v.size else None
+        # each record's said in its own samples and time (either may be used at every m-th sample)
         artefacts = [dict(a, record="first", repaired=bool(repair_artefacts and a["kind"] in REPAIRABLE),
-                          time_s=a["time_s"] if first_times is None else float(first_times[a["sample"]]))
+                          sample=a["sample"] * first_every, samples=a["samples"] * first_every,
+                          time_s=(a["sample"] * first_every / first_rate_hz if first_times is None
+                                  else float(first_times[a["sample"]])))
                      for a in first_found]
-        # the second record's said in its own samples and time (it may be used at every m-th sample)
         artefacts += [dict(a, record="second", repaired=bool(repair_artefacts and a["kind"] in REPAIRABLE),
                            sample=a["sample"] * second_every, samples=a["samples"] * second_every,
                            time_s=a["sample"] * second_every / second_rate_hz)

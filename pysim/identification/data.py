@@ -43,7 +43,8 @@ from pysim.identification.errors import DataError, IdentificationError
 
 __all__ = [
     "COLUMNS", "MeasuredData", "load_measured", "load_reference", "save_measured", "require_samples",
-    "estimate_sample_rate", "require_even_sampling", "resample_record", "resampling_stride", "checked_sample_rate",
+    "estimate_sample_rate", "require_even_sampling", "resample_record", "resampling_stride", "common_sample_rate",
+    "checked_sample_rate",
     "EVEN_SAMPLING_SPREAD", "shipped_dataset", "SHIPPED_DATASETS",
 ]
 
@@ -253,6 +254,66 @@ def resampling_stride(from_rate_hz: float, to_rate_hz: float) -> int:
     return max(1, round(float(from_rate_hz) / float(to_rate_hz)))
 
 
+def _misplacement_samples(from_rate_hz: float, to_rate_hz: float, n_samples: int) -> float:
+    """How far, in samples of ``from_rate_hz``, the last sample :func:`resample_record` keeps of a
+    record of ``n_samples`` lies from where ``to_rate_hz`` puts it (every :func:`resampling_stride`-th
+    sample taken as one period of ``to_rate_hz``); below half a sample the record is usable."""
+    ratio = float(from_rate_hz) / float(to_rate_hz)        # input samples per output sample
+    return abs(resampling_stride(from_rate_hz, to_rate_hz) / ratio - 1.0) * (n_samples - 1)
+
+
+#: The most samples of the first record :func:`common_sample_rate` merges into one: a common rate
+#: lower than that would throw away most of the record the models are fitted on.
+MAX_COMMON_STRIDE = 10
+
+
+def common_sample_rate(first_rate_hz: float, first_samples: int, second_rate_hz: float,
+                       second_samples: int) -> float:
+    """The rate, Hz, at which two records of one actuator are used together: the first record's
+    rate when the second is as fast or a whole number of times faster, else the highest rate the
+    first reaches at every m-th sample (m at most :data:`MAX_COMMON_STRIDE`) on whose grid the
+    second record's samples fall too, by :func:`resample_record`'s rule (each record's last sample
+    used lies less than half a sample from its place).
+
+    Parameters
+    ----------
+    first_rate_hz, second_rate_hz : float
+        The records' sample rates, Hz.
+    first_samples, second_samples : int
+        Their lengths, in samples.
+
+    Returns
+    -------
+    float
+        ``first_rate_hz / m`` for the smallest ``m`` that fits.
+
+    Raises
+    ------
+    DataError
+        When a rate is not a positive finite number, or when no common rate down to
+        ``first_rate_hz / MAX_COMMON_STRIDE`` fits both records.
+
+    Examples
+    --------
+    >>> common_sample_rate(10000.0, 5000, 20000.0, 8000)      # the second at every 2nd sample
+    10000.0
+    >>> common_sample_rate(10000.0, 5000, 5000.0, 8000)       # the first at every 2nd sample
+    5000.0
+    >>> common_sample_rate(5000.0, 5000, 2000.0, 8000)        # every 5th and every 2nd
+    1000.0
+    """
+    first = checked_sample_rate(first_rate_hz, "the first record's sample rate")
+    second = checked_sample_rate(second_rate_hz, "the second record's sample rate")
+    for stride in range(1, MAX_COMMON_STRIDE + 1):
+        # a second record slower than the rate tried is misplaced by most of its length
+        if _misplacement_samples(second, first / stride, second_samples) < 0.5:
+            return first / stride
+    raise DataError(f"records at {first:g} Hz and {second:g} Hz have no common rate down to "
+                    f"{first / MAX_COMMON_STRIDE:g} Hz on which both records' samples fall (every m-th sample "
+                    "of each; interpolating would invent samples and make the noise look smaller): record them "
+                    "at one rate, or at rates of which one is a whole multiple of the other")
+
+
 def resample_record(voltage_V, displacement_um, from_rate_hz: float, to_rate_hz: float) -> tuple:
     """The samples of a record taken at ``from_rate_hz`` that fall on the grid of ``to_rate_hz``.
 
@@ -307,10 +368,8 @@ def resample_record(voltage_V, displacement_um, from_rate_hz: float, to_rate_hz:
     if v.size != y.size or v.size < 2:
         raise DataError(f"a record to resample needs at least 2 samples of voltage and displacement each "
                         f"(got {v.size} and {y.size})")
-    ratio = float(from_rate_hz) / float(to_rate_hz)        # input samples per output sample
     m = resampling_stride(from_rate_hz, to_rate_hz)
-    # the misplacement, in input samples, of the last kept sample when the ratio is taken as m
-    if abs(m / ratio - 1.0) * (v.size - 1) >= 0.5:
+    if _misplacement_samples(from_rate_hz, to_rate_hz, v.size) >= 0.5:
         raise DataError(f"a record at {float(from_rate_hz):g} Hz cannot be used at {float(to_rate_hz):g} Hz: only "
                         "the same rate or a whole multiple of it is used, every m-th sample (interpolating would "
                         "invent samples and make the noise look smaller); record at "

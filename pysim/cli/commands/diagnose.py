@@ -32,8 +32,9 @@ def register(subparsers) -> None:
                         help="one-sided play (paper, default) or classical play operators")
     parser.add_argument("--model", choices=("mpi", "cpi"), default="mpi", help="hysteresis model (default mpi)")
     parser.add_argument("--validate", metavar="OTHER",
-                        help="a second record of the same actuator with another input (same layout and sample "
-                             "rate): every model is scored on it and the cause is named by it")
+                        help="a second record of the same actuator with another input (same layout): every model "
+                             "is scored on it and the cause is named by it; at another sample rate both records "
+                             "are used at the highest rate their samples share")
     parser.add_argument("--train-fraction", type=float, default=0.65, metavar="F",
                         help="where the report's plots shade a held-out part (default 0.65); the scores are "
                              "cross-validated")
