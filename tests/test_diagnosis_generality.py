@@ -1037,6 +1037,35 @@ def test_a_second_record_at_a_rate_without_a_common_grid_is_refused():
     assert "\n" not in message
 
 
+def test_a_record_without_noise_is_weighed_against_the_lowest_noise_measured_not_its_own_misfit():
+    """A simulated record of a plain MPI actuator (independent generator: thresholds off the eq. 13
+    grid), without noise: the fit's misfit is the model class's, and weighed against a noise
+    estimate of 10⁻⁶ of the range it was named a delay (74 % of the error removed).  It is weighed
+    against 0.1 % of the range instead, said so, and nothing is named; the same record with a
+    sensor's noise is weighed against that noise."""
+    import json
+
+    import independent_records
+
+    from pysim.diagnosis.residuals import VALIDATED_NOISE_FRACTION, is_noise_free
+
+    rng = np.random.default_rng(5)
+    plant = independent_records.make_plant(rng, (0.0, 100.0))
+    k = np.arange(6000)
+    v = 50 + 45 * np.sin(2 * np.pi * k / 1500) * (0.6 + 0.4 * np.cos(2 * np.pi * k / 4100))
+    y = plant.hysteresis_um(v) + plant.sensor_offset_um
+    d = diagnose(v, y, FS)
+    assert d.cause == "none" and d.causes == () and d.noise_free, d.why
+    assert d.noise_um == pytest.approx(VALIDATED_NOISE_FRACTION * np.ptp(y), rel=1e-12)
+    assert "shows no measurable noise" in d.why
+    assert json.loads(json.dumps(d.as_json()))["evidence"]["noise_free"] is True
+    sigma = 2e-6 * np.ptp(y)            # a capacitive sensor's noise: measured, not floored
+    noisy = y + np.random.default_rng(6).normal(0.0, sigma, y.size)
+    assert not is_noise_free(noisy - y, noisy)
+    d = diagnose(v, noisy, FS)
+    assert not d.noise_free and d.noise_um < 2 * sigma and "no measurable noise" not in d.why
+
+
 # ------------------------------------------------------------ ambiguity
 
 @pytest.mark.parametrize("truth", ["delay", "rate_dependence"])

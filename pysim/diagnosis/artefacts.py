@@ -40,7 +40,7 @@ import math
 
 import numpy as np
 
-from pysim.diagnosis.residuals import noise_sigma, quantum
+from pysim.diagnosis.residuals import record_noise_sigma
 from pysim.identification.errors import IdentificationError
 from pysim.identification.identify import identify
 
@@ -144,7 +144,7 @@ def find_artefacts(voltage_V, displacement_um, sample_rate_hz: float, **fit_opti
     except IdentificationError:
         return []
     residual = y - fit.prediction_um
-    noise = noise_sigma(residual, quantum(y))
+    noise = record_noise_sigma(residual, y)
     found = record_artefacts(v, y, residual, noise, sample_rate_hz)
     jumps = [a for a in found if a["kind"] == "jump"]
     if not jumps:

@@ -97,7 +97,8 @@ from pysim.diagnosis.folds import (DEFAULT_TRAIN_FRACTION, Split, WIDER_RANGE_SH
                                    settle_samples, character_split, make_folds, range_beyond_first,
                                    split_record)
 from pysim.diagnosis.path_memory import path_memory
-from pysim.diagnosis.residuals import noise_sigma, quantum, residual_statistics
+from pysim.diagnosis.residuals import (NOISE_FREE_FRACTION, VALIDATED_NOISE_FRACTION, is_noise_free,
+                                      record_noise_sigma, residual_statistics)
 from pysim.diagnosis.rules import (MIN_GAIN_PCT, NEAR_NOISE_FRACTION, NOISE_FRACTION, TIE_FRACTION,
                                    UNEXPLAINED_LEVEL, rms_gain_pct, shape_not_unexplained, advantage_holds,
                                    decide, removal_holds)
@@ -158,6 +159,10 @@ class Diagnosis:
         (spikes and jumps are, before the diagnosis, unless
         ``repair_artefacts=False``; ``displacement_um`` is then the repaired
         record).  Samples count from the record's first.
+    noise_free : bool
+        The record fitted shows no measurable noise (a simulation:
+        :func:`pysim.diagnosis.residuals.is_noise_free`); ``noise_um`` is then
+        0.1 % of its range, the lowest noise the diagnosis was measured at.
     baseline, extended, richer : Evaluation
     candidates : dict
         Cause → Evaluation.
@@ -192,6 +197,7 @@ class Diagnosis:
     steps: dict = None
     shape: dict = field(default_factory=dict)
     artefacts: list = field(default_factory=list)
+    noise_free: bool = False
 
     @property
     def gain_pct(self) -> float:
@@ -251,6 +257,7 @@ class Diagnosis:
                 "why": self.why,
                 "noise_um": self.noise_um,
                 "noise_pct": 100.0 * self.noise_um / span if span > 0 else float("nan"),
+                "noise_free": self.noise_free,
                 "split": self.split.as_dict(self.sample_period_s),
                 "scoring": {"method": "blocked cross-validation", "folds": self.folds,
                             "scored_samples": self.scored_samples,
@@ -626,7 +633,6 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
 
     candidates = candidates_on_either_base(fitter, run, baseline, richer, EFFECTS, creep_score)
 
-    step = quantum(y)
     shaped_on_second = []
     if validate is not None:
         try:
@@ -636,10 +642,11 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
             second_unidentified = ""
         if second_unidentified:
             shaped_on_second = dynamics_where_they_show(fitter, run, rate_independent, candidates, v, v2, y2,
-                                                        noise_sigma(y - baseline.prediction_um, step))
+                                                        record_noise_sigma(y - baseline.prediction_um, y))
 
-    noise = min(noise_sigma(y - ev.prediction_um, step)
+    noise = min(record_noise_sigma(y - ev.prediction_um, y)
                 for ev in [baseline, richer, *candidates.values()])
+    noise_free = is_noise_free(y - baseline.prediction_um, y)
     # a hysteresis shape outside the model class: every model is compared after the same correction
     shape = {}
     first_shape = correct_for_shape([baseline, richer, *candidates.values()], folds, y, mask, path_memory(v),
@@ -846,6 +853,11 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 + (f"; the {found['left_sigma2'] - 1.0:.3g} σ² still above the noise is most likely the rest of "
                    "that shape (the nearest paths of other blocks cannot teach all of it), not an effect outside "
                    "the catalogue" if cause == "none" and found["left_sigma2"] - 1.0 >= UNEXPLAINED_LEVEL else ""))
+    if noise_free:
+        why += (f". The record fitted shows no measurable noise (below {NOISE_FREE_FRACTION:g} of its range, as a "
+                f"simulation gives): every error is weighed against {100 * VALIDATED_NOISE_FRACTION:g} % of the "
+                "range instead, the lowest noise the diagnosis was measured at, so a smaller effect is not seen; "
+                "add the sensor's noise to a simulated record to weigh it against that")
     if _swap_reason:
         swap = (f"the records' roles are swapped: {_swap_reason}, so every model is fitted on {source} and "
                 f"scored on {validate_source}")
@@ -888,7 +900,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                               cross_validation_causes=tuple(cv_verdict["causes"]), validation=validation,
                               excitation_plan=plan, start_excluded_samples=start,
                               records_swapped=bool(_swap_reason), swap_reason=_swap_reason,
-                              steps=cv_verdict.get("steps"), shape=shape))
+                              steps=cv_verdict.get("steps"), shape=shape, noise_free=noise_free))
 
 
 def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -> str:

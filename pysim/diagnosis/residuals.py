@@ -38,6 +38,65 @@ def noise_sigma(residual_um, quantum_um: float = 0.0) -> float:
     return max(_MAD_TO_SIGMA * mad / np.sqrt(2.0), quantum_um / np.sqrt(12.0))
 
 
+#: Below this fraction of its range a record's noise is not a sensor's (24-bit converters resolve
+#: 6e-8 of theirs): the record is a simulation or was smoothed, and has no measurable noise.
+NOISE_FREE_FRACTION = 1e-7
+
+#: The lowest noise, as a fraction of the displacement's range, the diagnosis was measured at (the
+#: generators of the tests and benchmarks: 0.1-0.5 %); a record without measurable noise is weighed
+#: against it.
+VALIDATED_NOISE_FRACTION = 1e-3
+
+
+def record_noise_sigma(residual_um, displacement_um) -> float:
+    """Standard deviation (µm) of the noise against which a residual of the record
+    ``displacement_um`` is weighed: :func:`noise_sigma` at the record's resolution
+    (:func:`quantum`).
+
+    A record without measurable noise (:func:`is_noise_free`, as a simulation
+    gives) would make every deterministic misfit, however small, thousands of
+    noise variances, and the misfit of the model class would be named as an
+    effect.  Such a record is weighed against :data:`VALIDATED_NOISE_FRACTION`
+    of its range instead, the lowest noise the diagnosis was measured at.
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 1.0, 2001)
+    >>> y = 10.0 * np.sin(2 * np.pi * t)
+    >>> record_noise_sigma(1e-4 * np.cos(6 * np.pi * t) ** 3, y)      # 20 µm range, no noise
+    0.02
+    >>> noisy = np.random.default_rng(0).normal(0.0, 0.05, t.size)
+    >>> round(record_noise_sigma(noisy, y + noisy), 2)
+    0.05
+    """
+    y = np.asarray(displacement_um, dtype=float)
+    if is_noise_free(residual_um, y):
+        return VALIDATED_NOISE_FRACTION * float(np.ptp(y))
+    return float(noise_sigma(residual_um, quantum(y)))
+
+
+def is_noise_free(residual_um, displacement_um) -> bool:
+    """Whether a residual of the record ``displacement_um`` shows no measurable noise: its white
+    part, and the record's resolution, below :data:`NOISE_FREE_FRACTION` of the record's range.
+
+    The white part is also estimated from third differences, which a smooth misfit hardly moves
+    (a sine's by (2π/period)³) while white noise gives the same σ as from first differences: a
+    noise-free record's misfit can be rough enough in its first differences to look like noise.
+    """
+    y = np.asarray(displacement_um, dtype=float)
+    span = float(np.ptp(y)) if y.size else 0.0
+    step = quantum(y)
+    grid = (y - y[0]) / step if step > 0 else np.zeros(0)
+    # a quantised sensor's resolution (values on a grid of its step), not a smooth record's least increment
+    resolution = step if grid.size and np.mean(np.abs(grid - np.round(grid)) < 1e-3) > 0.99 else 0.0
+    white = noise_sigma(residual_um)
+    third = np.diff(np.asarray(residual_um, dtype=float), n=3)
+    if third.size:
+        # Var(Δ³ noise) = 20 σ²
+        white = min(white, _MAD_TO_SIGMA * float(np.median(np.abs(third - np.median(third)))) / np.sqrt(20.0))
+    return max(white, resolution / np.sqrt(12.0)) < NOISE_FREE_FRACTION * span
+
+
 def quantum(values) -> float:
     """Smallest non-zero step between samples (the sensor's resolution, if any)."""
     d = np.abs(np.diff(np.asarray(values, dtype=float)))

@@ -27,7 +27,7 @@ from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.folds import N_FOLDS, contiguous_blocks, record_folds, input_period
 from pysim.diagnosis.input_stages import InputStageModel
 from pysim.diagnosis.path_memory import path_memory, path_predicted
-from pysim.diagnosis.residuals import noise_sigma, quantum
+from pysim.diagnosis.residuals import record_noise_sigma
 from pysim.diagnosis.rules import (DECISIVE_SHARE, DYNAMICS, NEAR_NOISE_FRACTION, NOISE_FRACTION,
                                    TIE_FRACTION, UNEXPLAINED_LEVEL, shape_not_unexplained,
                                    simplest_unless_outranked, advantage_holds, decide, removal_holds)
@@ -306,7 +306,7 @@ def _on_own_hysteresis(fitter: CandidateFitter, candidates: dict, causes, v2, y2
         own = second.fit(base)
     except IdentificationError:
         return None
-    noise = noise_sigma(y2 - own.prediction_um, quantum(y2))
+    noise = record_noise_sigma(y2 - own.prediction_um, y2)
     if not noise > 0:
         return None
     predictions = {}
@@ -721,8 +721,7 @@ def _second_record_alone(fitter: CandidateFitter, causes, v2, y2, second=None):
     found = candidates_on_either_base(second, run, baseline, richer, causes)
     if not found:
         return None
-    step = quantum(y2)
-    noise = min(noise_sigma(y2 - ev.prediction_um, step) for ev in [baseline, richer, *found.values()])
+    noise = min(record_noise_sigma(y2 - ev.prediction_um, y2) for ev in [baseline, richer, *found.values()])
     if not noise > 0:
         return None
 
@@ -798,7 +797,7 @@ def _rate_independent_excess(fitter, v2, y2, memory2=None) -> float:
     except IdentificationError:
         return math.inf
     error = y2 - own.prediction_um
-    noise = noise_sigma(error, quantum(y2))
+    noise = record_noise_sigma(error, y2)
     if not noise > 0:
         return math.inf
     # a shape outside the model class is no effect either: what the path alone predicts is not counted

@@ -34,7 +34,7 @@ import numpy as np
 
 from pysim.diagnosis.candidates import CandidateFit, initial_extended_state
 from pysim.diagnosis.input_stages import InputStageModel
-from pysim.diagnosis.residuals import noise_sigma, quantum
+from pysim.diagnosis.residuals import record_noise_sigma
 from pysim.identification.identify import (best_clamped_state, operator_bounds, refine_state_through_stage,
                                           short_history_states)
 
@@ -251,5 +251,5 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
             "max_pct": 100.0 * float(error.max()) / span if span > 0 else float("nan"),
             "mse_um2": mse, "offset_um": c, "gain": g, "timing_samples": shift,
             "scored_samples": int(scored.size), "history_modes": int(modes.shape[1]),
-            "noise_um": noise_sigma((y - prediction)[scored], quantum(y)),
+            "noise_um": record_noise_sigma((y - prediction)[scored], y),
             "initial_state_V": [float(s) for s in state], "prediction_um": prediction, "scored_rows": scored}
