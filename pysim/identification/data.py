@@ -18,7 +18,9 @@ which column was read as what.
 
 Other layouts are read with options: column names or 1-based column numbers,
 no header row, a ``;``, whitespace or other delimiter, and a sample rate when
-there is no time column.  Every problem with a file is a
+there is no time column.  A file separated by ``;``, tabs or spaces may write
+a decimal comma (``0,5``), as a European locale exports; tabs alone separate
+a header whose names hold spaces (``Time [s]<tab>Voltage [V]``).  Every problem with a file is a
 :class:`pysim.identification.errors.DataError` whose one-line message names the file, the line
 (1-based, as an editor shows it) and the column (number and name) where that
 applies.
@@ -450,9 +452,11 @@ def load_measured(path, *, time_column=None, voltage_column=None, displacement_c
         Whether the first line read (after ``skip_rows``) names the columns.
     delimiter : str, optional
         ``","``, ``";"``, whitespace (``" "``, ``"\\t"``, ``"tab"`` or
-        ``"whitespace"``: runs of spaces and tabs) or another single character.
-        Default: detected from the first line read (semicolon, then tab, then
-        comma, else whitespace).
+        ``"whitespace"``: runs of spaces and tabs; a tab alone when a header
+        cell between tabs holds words with a space) or another single
+        character.  Default: detected from the first line read (semicolon,
+        then tab, then comma, else whitespace).  Except with ``","``, a cell
+        with one comma and no point is read with the comma as decimal point.
     sample_rate_hz : float, optional
         Sample rate in Hz for a file without a time column: ``time_s = k / fs``.
         Giving it for a file that has a time column is an error (one source of
@@ -618,8 +622,13 @@ class _Reader:
             expected = self.n_cells - 1
         if np.any(counts != expected):
             return None
+        rows = self.rows
+        if self.sep != "," and any("," in line for line in rows):
+            # decimal commas (a ';' or tab file from a European locale): a cell with one comma and no
+            # point reads as with a point; any other comma leaves two points, which no number has
+            rows = [line.replace(",", ".") for line in rows]
         try:
-            return np.loadtxt(self.rows, dtype=np.float64, delimiter=self.sep, usecols=self.used,
+            return np.loadtxt(rows, dtype=np.float64, delimiter=self.sep, usecols=self.used,
                               comments=None, ndmin=2)
         except ValueError:
             return None  # the careful scan says where, or accepts (e.g. quoted numbers)
@@ -641,6 +650,8 @@ class _Reader:
         try:
             if "_" in text:  # Python accepts 1_000; a data file should not
                 raise ValueError
+            if self.sep != "," and text.count(",") == 1 and "." not in text:
+                return float(text.replace(",", "."))     # a decimal comma (as the fast path reads it)
             return float(text)
         except ValueError:
             hint = ""
@@ -736,14 +747,26 @@ def _blank(line: str) -> bool:
 
 # ------------------------------------------------------------- delimiters
 
+def _tab_or_whitespace(first_line):
+    """A tab alone when a cell between tabs holds words with a space (a header ``Time [s]<tab>Voltage
+    [V]``), else runs of spaces and tabs (numbers aligned with both)."""
+    def words(cell):
+        tokens = cell.split()
+        return len(tokens) > 1 and not all(_is_number(token) for token in tokens)
+
+    return "\t" if any(words(cell) for cell in first_line.split("\t")) else _WHITESPACE
+
+
 def _resolve_delimiter(name, delimiter, first_line):
     if delimiter is None:
         for sep in (";", "\t", ","):
             if sep in first_line:
-                return _WHITESPACE if sep == "\t" else sep
+                return _tab_or_whitespace(first_line) if sep == "\t" else sep
         return _WHITESPACE
     if not isinstance(delimiter, str):
         raise DataError(f"{name}: delimiter must be a string, got {delimiter!r}")
+    if delimiter.lower() in ("tab", "\\t", "\t"):
+        return _tab_or_whitespace(first_line)
     if delimiter.lower() in _DELIMITER_WORDS:
         return _DELIMITER_WORDS[delimiter.lower()]
     if len(delimiter) != 1 or delimiter in "\"'\n\r" or delimiter.isalnum() or delimiter in ".+-":
