@@ -97,7 +97,7 @@ from pysim.diagnosis.folds import (DEFAULT_TRAIN_FRACTION, Split, WIDER_RANGE_SH
                                    settle_samples, character_split, make_folds, range_beyond_first,
                                    split_record)
 from pysim.diagnosis.path_memory import path_memory
-from pysim.diagnosis.residuals import (NOISE_FREE_FRACTION, VALIDATED_NOISE_FRACTION, is_noise_free,
+from pysim.diagnosis.residuals import (NOISE_FREE_FRACTION, VALIDATED_NOISE_FRACTION, models_noise_sigma,
                                       record_noise_sigma, residual_statistics)
 from pysim.diagnosis.rules import (MIN_GAIN_PCT, NEAR_NOISE_FRACTION, NOISE_FRACTION, TIE_FRACTION,
                                    UNEXPLAINED_LEVEL, rms_gain_pct, shape_not_unexplained, advantage_holds,
@@ -644,9 +644,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
             shaped_on_second = dynamics_where_they_show(fitter, run, rate_independent, candidates, v, v2, y2,
                                                         record_noise_sigma(y - baseline.prediction_um, y))
 
-    noise = min(record_noise_sigma(y - ev.prediction_um, y)
-                for ev in [baseline, richer, *candidates.values()])
-    noise_free = is_noise_free(y - baseline.prediction_um, y)
+    noise, noise_free = models_noise_sigma([y - ev.prediction_um for ev in [baseline, richer, *candidates.values()]],
+                                           y)
     # a hysteresis shape outside the model class: every model is compared after the same correction
     shape = {}
     first_shape = correct_for_shape([baseline, richer, *candidates.values()], folds, y, mask, path_memory(v),

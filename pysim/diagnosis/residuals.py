@@ -75,6 +75,26 @@ def record_noise_sigma(residual_um, displacement_um) -> float:
     return float(noise_sigma(residual_um, quantum(y)))
 
 
+def models_noise_sigma(residuals_um, displacement_um) -> tuple:
+    """``(σ µm, noise_free)`` against which several models' residuals of one record are weighed: the
+    smallest of their :func:`record_noise_sigma` estimates, or the floor for all of them when any
+    residual shows no measurable noise (no model fits white noise away, so one such residual means
+    the record has none, whatever the others' misfits look like).
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 1.0, 2001)
+    >>> y = 10.0 * np.sin(2 * np.pi * t)
+    >>> models_noise_sigma([1e-4 * np.cos(6 * np.pi * t) ** 3, 1e-3 * np.sign(np.sin(40 * t))], y)
+    (0.02, True)
+    """
+    y = np.asarray(displacement_um, dtype=float)
+    residuals = [np.asarray(r, dtype=float) for r in residuals_um]
+    if any(is_noise_free(r, y) for r in residuals):
+        return VALIDATED_NOISE_FRACTION * float(np.ptp(y)), True
+    return min(record_noise_sigma(r, y) for r in residuals), False
+
+
 def is_noise_free(residual_um, displacement_um) -> bool:
     """Whether a residual of the record ``displacement_um`` shows no measurable noise: its white
     part, and the record's resolution, below :data:`NOISE_FREE_FRACTION` of the record's range.

@@ -27,7 +27,7 @@ from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.folds import N_FOLDS, contiguous_blocks, record_folds, input_period
 from pysim.diagnosis.input_stages import InputStageModel
 from pysim.diagnosis.path_memory import path_memory, path_predicted
-from pysim.diagnosis.residuals import record_noise_sigma
+from pysim.diagnosis.residuals import models_noise_sigma, record_noise_sigma
 from pysim.diagnosis.rules import (DECISIVE_SHARE, DYNAMICS, NEAR_NOISE_FRACTION, NOISE_FRACTION,
                                    TIE_FRACTION, UNEXPLAINED_LEVEL, shape_not_unexplained,
                                    simplest_unless_outranked, advantage_holds, decide, removal_holds)
@@ -721,7 +721,7 @@ def _second_record_alone(fitter: CandidateFitter, causes, v2, y2, second=None):
     found = candidates_on_either_base(second, run, baseline, richer, causes)
     if not found:
         return None
-    noise = min(record_noise_sigma(y2 - ev.prediction_um, y2) for ev in [baseline, richer, *found.values()])
+    noise, _ = models_noise_sigma([y2 - ev.prediction_um for ev in [baseline, richer, *found.values()]], y2)
     if not noise > 0:
         return None
 
