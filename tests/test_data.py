@@ -131,6 +131,9 @@ def layouts(t, v, d):
         "decimal_comma_quoted": ("time_s;voltage_V;displacement_um\n"
                                  + "".join(f'"{a}";"{b}";"{c}"\n'.replace(".", ",") for a, b, c in r), {},
                                  "utf-8"),
+        "german_header_decimal_comma": ("Zeit [s];Spannung [V];Weg [µm]\n"
+                                        + "".join(f"{a};{b};{c}\n".replace(".", ",") for a, b, c in r), {},
+                                        "utf-8"),
         # tabs between header cells that hold spaces: the tab alone separates
         "tab_header_with_units": ("Time [s]\tVoltage [V]\tDisplacement [um]\n" + std.replace(",", "\t"), {},
                                   "utf-8"),

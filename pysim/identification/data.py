@@ -10,9 +10,10 @@ The standard file is a CSV whose header row names the columns ``time_s``,
 A header that names the quantities in other words is read too, when every
 column it needs is named once: ``Time [ms]``, ``time (s)``, ``t_s``, ``time``;
 ``Voltage [V]``, ``u``, ``input voltage (mV)``; ``Displacement [nm]``,
-``position_um``, ``y``.  A unit in brackets, parentheses, after ``/`` or ``_``
-or after ``in`` is converted to s, V and µm; a name without a unit is taken to
-be in s, V and µm; a column whose unit is of another quantity (``displacement
+``position_um``, ``y``; in German or French, ``Zeit``, ``Spannung``, ``Weg``,
+``temps``, ``tension``, ``déplacement``.  A unit in brackets, parentheses,
+after ``/`` or ``_`` or after ``in`` is converted to s, V and µm; a name
+without a unit is taken to be in s, V and µm; a column whose unit is of another quantity (``displacement
 [V]``, a raw sensor signal) is not used.  :attr:`MeasuredData.read_as` says
 which column was read as what.
 
@@ -902,11 +903,14 @@ def _columns_from_header(name, line_no, names, specs, rate) -> tuple:
 # units of each with the factor to the standard unit.  Only whole-cell matches count: a cell such
 # as "voltage setpoint" or "position error" is not the quantity.
 _QUANTITY_WORDS = {
-    "time_s": ("time", "t", "timestamp", "elapsed time"),
+    # English, then the German and French of a European locale's export (it writes decimal commas too)
+    "time_s": ("time", "t", "timestamp", "elapsed time", "zeit", "temps"),
     "voltage_V": ("voltage", "volt", "volts", "v", "u", "input", "input voltage", "piezo voltage",
-                  "actuator voltage", "drive voltage", "applied voltage", "voltage in", "vin", "u in"),
+                  "actuator voltage", "drive voltage", "applied voltage", "voltage in", "vin", "u in",
+                  "spannung", "tension"),
     "displacement_um": ("displacement", "position", "y", "x", "output", "output displacement",
-                        "measured displacement", "stage position", "disp", "pos", "extension", "stroke"),
+                        "measured displacement", "stage position", "disp", "pos", "extension", "stroke",
+                        "weg", "auslenkung", "verschiebung", "déplacement", "deplacement"),
 }
 _UNITS = {
     "time_s": {"s": 1.0, "sec": 1.0, "seconds": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6},
