@@ -505,6 +505,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 time_s = np.ravel(time_s)[::first_every] if np.size(time_s) == v.size else None
             v, y, first_how = resample_record(v, y, first_rate_hz, common_rate_hz)
             sample_rate_hz = common_rate_hz
+            given = (v, y, sample_rate_hz)
             _check_record(v, y, sample_rate_hz, where)
             notes.append(f"{source or 'the first record'} was sampled at {first_rate_hz:g} Hz and is used at "
                          f"{common_rate_hz:g} Hz, the highest rate on which both records' samples fall: "
@@ -516,7 +517,6 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                          + f": {how}")
             _check_record(v2, y2, sample_rate_hz, where2)
         resampled = "; ".join(notes)
-        given = (v, y, sample_rate_hz)
         second_every = resampling_stride(rate2, sample_rate_hz)
         second_rate_hz = float(rate2)
         rate2 = sample_rate_hz

@@ -31,11 +31,17 @@ def noise_sigma(residual_um, quantum_um: float = 0.0) -> float:
     the few large differences at steps.  A quantised sensor can give a median
     of zero: the estimate is then at least ``quantum_um / sqrt(12)``.
     """
-    d = np.diff(np.asarray(residual_um, dtype=float))
+    return max(_difference_sigma(residual_um, 1), quantum_um / np.sqrt(12.0))
+
+
+def _difference_sigma(residual_um, order: int) -> float:
+    """σ of white noise from the median absolute deviation of the ``order``-th differences (their
+    variance is C(2 order, order) σ²: 2 for first differences, 20 for third); 0 when too short."""
+    d = np.diff(np.asarray(residual_um, dtype=float), n=order)
     if d.size == 0:
         return 0.0
     mad = float(np.median(np.abs(d - np.median(d))))
-    return max(_MAD_TO_SIGMA * mad / np.sqrt(2.0), quantum_um / np.sqrt(12.0))
+    return _MAD_TO_SIGMA * mad / np.sqrt({1: 2.0, 3: 20.0}[order])
 
 
 #: Below this fraction of its range a record's noise is not a sensor's (24-bit converters resolve
@@ -69,10 +75,7 @@ def record_noise_sigma(residual_um, displacement_um) -> float:
     >>> round(record_noise_sigma(noisy, y + noisy), 2)
     0.05
     """
-    y = np.asarray(displacement_um, dtype=float)
-    if is_noise_free(residual_um, y):
-        return VALIDATED_NOISE_FRACTION * float(np.ptp(y))
-    return float(noise_sigma(residual_um, quantum(y)))
+    return models_noise_sigma([residual_um], displacement_um)[0]
 
 
 def models_noise_sigma(residuals_um, displacement_um) -> tuple:
@@ -88,11 +91,11 @@ def models_noise_sigma(residuals_um, displacement_um) -> tuple:
     >>> models_noise_sigma([1e-4 * np.cos(6 * np.pi * t) ** 3, 1e-3 * np.sign(np.sin(40 * t))], y)
     (0.02, True)
     """
-    y = np.asarray(displacement_um, dtype=float)
-    residuals = [np.asarray(r, dtype=float) for r in residuals_um]
-    if any(is_noise_free(r, y) for r in residuals):
-        return VALIDATED_NOISE_FRACTION * float(np.ptp(y)), True
-    return min(record_noise_sigma(r, y) for r in residuals), False
+    scale = _RecordScale(displacement_um)
+    first = [_difference_sigma(r, 1) for r in residuals_um]       # each residual's, computed once
+    if any(scale.noise_free(r, sigma) for r, sigma in zip(residuals_um, first)):
+        return VALIDATED_NOISE_FRACTION * scale.span, True
+    return float(min(max(sigma, scale.step / np.sqrt(12.0)) for sigma in first)), False
 
 
 def is_noise_free(residual_um, displacement_um) -> bool:
@@ -103,18 +106,30 @@ def is_noise_free(residual_um, displacement_um) -> bool:
     (a sine's by (2π/period)³) while white noise gives the same σ as from first differences: a
     noise-free record's misfit can be rough enough in its first differences to look like noise.
     """
-    y = np.asarray(displacement_um, dtype=float)
-    span = float(np.ptp(y)) if y.size else 0.0
-    step = quantum(y)
-    grid = (y - y[0]) / step if step > 0 else np.zeros(0)
-    # a quantised sensor's resolution (values on a grid of its step), not a smooth record's least increment
-    resolution = step if grid.size and np.mean(np.abs(grid - np.round(grid)) < 1e-3) > 0.99 else 0.0
-    white = noise_sigma(residual_um)
-    third = np.diff(np.asarray(residual_um, dtype=float), n=3)
-    if third.size:
-        # Var(Δ³ noise) = 20 σ²
-        white = min(white, _MAD_TO_SIGMA * float(np.median(np.abs(third - np.median(third)))) / np.sqrt(20.0))
-    return max(white, resolution / np.sqrt(12.0)) < NOISE_FREE_FRACTION * span
+    return _RecordScale(displacement_um).noise_free(residual_um, _difference_sigma(residual_um, 1))
+
+
+class _RecordScale:
+    """What a record's displacement sets for weighing its residuals: its range (µm), its least step
+    between samples (:func:`quantum`) and its resolution -- that step when the values lie on its
+    grid (a quantised sensor), else 0 (a smooth record's least increment is no resolution)."""
+
+    def __init__(self, displacement_um):
+        y = np.asarray(displacement_um, dtype=float)
+        self.span = float(np.ptp(y)) if y.size else 0.0
+        self.step = quantum(y)
+        grid = (y - y[0]) / self.step if self.step > 0 else np.zeros(0)
+        on_grid = grid.size and np.mean(np.abs(grid - np.round(grid)) < 1e-3) > 0.99
+        self.resolution = self.step if on_grid else 0.0
+
+    def noise_free(self, residual_um, first_difference_sigma: float) -> bool:
+        limit = NOISE_FREE_FRACTION * self.span
+        if self.resolution / np.sqrt(12.0) >= limit:
+            return False
+        white = first_difference_sigma
+        if np.size(residual_um) > 3:
+            white = min(white, _difference_sigma(residual_um, 3))
+        return white < limit
 
 
 def quantum(values) -> float:

@@ -13,18 +13,18 @@ column it needs is named once: ``Time [ms]``, ``time (s)``, ``t_s``, ``time``;
 ``position_um``, ``y``; in German or French, ``Zeit``, ``Spannung``, ``Weg``,
 ``temps``, ``tension``, ``déplacement``.  A unit in brackets, parentheses,
 after ``/`` or ``_`` or after ``in`` is converted to s, V and µm; a name
-without a unit is taken to be in s, V and µm; a column whose unit is of another quantity (``displacement
-[V]``, a raw sensor signal) is not used.  :attr:`MeasuredData.read_as` says
-which column was read as what.
+without a unit is taken to be in s, V and µm; a column whose unit is of
+another quantity (``displacement [V]``, a raw sensor signal) is not used.
+:attr:`MeasuredData.read_as` says which column was read as what.
 
 Other layouts are read with options: column names or 1-based column numbers,
 no header row, a ``;``, whitespace or other delimiter, and a sample rate when
 there is no time column.  A file separated by ``;``, tabs or spaces may write
 a decimal comma (``0,5``), as a European locale exports; tabs alone separate
-a header whose names hold spaces (``Time [s]<tab>Voltage [V]``).  Every problem with a file is a
-:class:`pysim.identification.errors.DataError` whose one-line message names the file, the line
-(1-based, as an editor shows it) and the column (number and name) where that
-applies.
+a header whose names hold spaces (``Time [s]<tab>Voltage [V]``).  Every
+problem with a file is a :class:`pysim.identification.errors.DataError` whose
+one-line message names the file, the line (1-based, as an editor shows it) and
+the column (number and name) where that applies.
 
 Parsing is fast (``numpy.loadtxt``); when that fails, a careful line-by-line
 scan of the same rules finds the exact line and cell to report, so both paths
@@ -61,10 +61,10 @@ SHIPPED_DATASETS = {
 }
 
 _WHITESPACE = None  # delimiter value meaning "runs of spaces and tabs"
-_DELIMITER_WORDS = {
-    "comma": ",", "semicolon": ";", "tab": _WHITESPACE, "\\t": _WHITESPACE, "\t": _WHITESPACE,
-    " ": _WHITESPACE, "space": _WHITESPACE, "whitespace": _WHITESPACE,
+_DELIMITER_WORDS = {     # a tab's words are resolved by the first line (_tab_or_whitespace)
+    "comma": ",", "semicolon": ";", " ": _WHITESPACE, "space": _WHITESPACE, "whitespace": _WHITESPACE,
 }
+_TAB_WORDS = ("tab", "\\t", "\t")
 _DELIMITER_NAMES = {",": "comma ','", ";": "semicolon ';'", "\t": "tab", " ": "spaces",
                     "|": "bar '|'", ":": "colon ':'"}
 _DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+([eE][+-]?\d+)?")
@@ -766,7 +766,7 @@ def _resolve_delimiter(name, delimiter, first_line):
         return _WHITESPACE
     if not isinstance(delimiter, str):
         raise DataError(f"{name}: delimiter must be a string, got {delimiter!r}")
-    if delimiter.lower() in ("tab", "\\t", "\t"):
+    if delimiter.lower() in _TAB_WORDS:
         return _tab_or_whitespace(first_line)
     if delimiter.lower() in _DELIMITER_WORDS:
         return _DELIMITER_WORDS[delimiter.lower()]
