@@ -16,8 +16,8 @@ from pysim.core.extended import (
     _library,
     tustin_creep_mode,
     tustin_displacement_creep,
-    tustin_first_order,
-    tustin_second_order,
+    first_order_section,
+    second_order_section,
 )
 from pysim.core.model import HysteresisModel
 from pysim.core.spec import load_spec, write_spec
@@ -37,23 +37,62 @@ def _section_tf(section):
 
 # ----------------------------------------------------------- discretisation
 
-@pytest.mark.parametrize("tau", [0.5e-3, 3e-3, 0.2])
-def test_tustin_first_order_matches_scipy_bilinear(tau):
-    b, a = scipy.signal.bilinear([1.0], [tau, 1.0], fs=1.0 / T)
-    mine_b, mine_a = _section_tf(tustin_first_order(tau, T))
-    np.testing.assert_allclose(mine_b[:2], b, rtol=1e-13)
-    np.testing.assert_allclose(mine_a[:2], a, rtol=1e-13, atol=1e-15)
-    assert mine_b.sum() / mine_a.sum() == pytest.approx(1.0, abs=1e-14)
+def _continuous_response(num, den, x, dt_s):
+    """Response of ``num/den`` (continuous) to ``x`` taken as linear between its
+    samples, at rest at ``x[0]``: scipy's matrix-exponential simulation (a second
+    implementation)."""
+    a, b, c, d = scipy.signal.tf2ss(num, den)
+    rest = np.linalg.solve(a, -b[:, 0] * x[0])
+    t = np.arange(x.size) * dt_s
+    _, y, _ = scipy.signal.lsim((a, b, c, d), x, t, X0=rest, interp=True)
+    return y
 
 
-@pytest.mark.parametrize("f, zeta", [(5.0, 0.05), (50.0, 0.3), (300.0, 1.5)])
-def test_tustin_second_order_matches_scipy_bilinear(f, zeta):
+def _run_section(section, x):
+    b, a = _section_tf(section)
+    return scipy.signal.lfilter(b, a, x, zi=scipy.signal.lfilter_zi(b, a) * x[0])[0]
+
+
+@pytest.mark.parametrize("tau", [0.1e-3, 0.5e-3, 3e-3, 0.2])
+def test_first_order_section_is_the_lag_of_a_piecewise_linear_input(tau, rng):
+    x = np.cumsum(rng.normal(size=4000))
+    expected = _continuous_response([1.0], [tau, 1.0], x, T)
+    np.testing.assert_allclose(_run_section(first_order_section(tau, T), x), expected, atol=1e-9 * np.ptp(x))
+    b, a = _section_tf(first_order_section(tau, T))
+    assert b.sum() / a.sum() == pytest.approx(1.0, abs=1e-14)
+
+
+@pytest.mark.parametrize("tau", [0.05e-3, 0.3e-3, 2e-3])
+def test_first_order_section_follows_a_ramp_as_the_closed_form(tau):
+    """From rest, x(t) = t gives y(t) = t − τ (1 − exp(−t/τ)) at every sample."""
+    t = np.arange(200) * T
+    y = _run_section(first_order_section(tau, T), t)
+    np.testing.assert_allclose(y, t + tau * np.expm1(-t / tau), atol=1e-15, rtol=1e-12)
+
+
+@pytest.mark.parametrize("tau", [0.05e-3, 0.2e-3, 0.45e-3])
+def test_a_lag_shorter_than_half_a_sample_does_not_ring(tau):
+    """The bilinear transform's pole is negative below τ = T/2 (the step response
+    alternates); the lag's own step response rises monotonically."""
+    b0, b1, _, a1, _ = first_order_section(tau, T)
+    assert 0.0 < -a1 < 1.0 and b0 > 0.0 and b1 >= 0.0
+    step = _run_section(first_order_section(tau, T), np.r_[0.0, np.ones(20)])
+    assert np.all(np.diff(step) >= 0.0) and step[-1] == pytest.approx(1.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("f, zeta", [(5.0, 0.05), (50.0, 0.3), (300.0, 1.5), (450.0, 0.2)])
+def test_second_order_section_is_the_resonance_of_a_piecewise_linear_input(f, zeta, rng):
     w = 2 * np.pi * f
-    b, a = scipy.signal.bilinear([w * w], [1.0, 2 * zeta * w, w * w], fs=1.0 / T)
-    mine_b, mine_a = _section_tf(tustin_second_order(f, zeta, T))
-    np.testing.assert_allclose(mine_b, b, rtol=1e-12)
-    np.testing.assert_allclose(mine_a, a, rtol=1e-12, atol=1e-14)
-    assert mine_b.sum() / mine_a.sum() == pytest.approx(1.0, abs=1e-12)
+    x = np.cumsum(rng.normal(size=4000))
+    expected = _continuous_response([w * w], [1.0, 2 * zeta * w, w * w], x, T)
+    got = _run_section(second_order_section(f, zeta, T), x)
+    np.testing.assert_allclose(got, expected, atol=1e-8 * np.ptp(x))
+    b, a = _section_tf(second_order_section(f, zeta, T))
+    assert b.sum() / a.sum() == pytest.approx(1.0, abs=1e-12)
+    # the poles are the continuous ones mapped by exp(sT): no frequency warping near Nyquist
+    poles = np.roots(a)
+    continuous = np.roots([1.0, 2 * zeta * w, w * w])
+    np.testing.assert_allclose(np.sort_complex(poles), np.sort_complex(np.exp(continuous * T)), atol=1e-12)
 
 
 def test_tustin_creep_mode_matches_scipy_bilinear():
@@ -129,7 +168,7 @@ def test_displacement_creep_spec_round_trip(tmp_path):
 
 def test_sections_match_lfilter_from_rest(rng):
     x = np.cumsum(rng.normal(size=3000)) + 5.0
-    sections = [tustin_second_order(40.0, 0.2, T), tustin_first_order(2e-3, T)]
+    sections = [second_order_section(40.0, 0.2, T), first_order_section(2e-3, T)]
     y, _ = OutputStages(sections).run(x)
     expected = x
     for section in sections:
@@ -170,7 +209,7 @@ def test_creep_and_drift_match_independent_formulas(rng):
 
 def _full_stages():
     modes = [tustin_creep_mode(tau, T) for tau in (0.02, 0.5)]
-    return OutputStages([tustin_second_order(30.0, 0.3, T)], 3.5, [m[0] for m in modes],
+    return OutputStages([second_order_section(30.0, 0.3, T)], 3.5, [m[0] for m in modes],
                         [m[1] for m in modes], [0.01, 0.03], [0.1, 0.02])
 
 
@@ -237,7 +276,7 @@ def test_model_is_hysteresis_followed_by_independent_stages():
     v = paper_input(4001, 4.0)
     y = model.simulate(v)
     h = model.hysteresis.simulate(v)
-    b, a = _section_tf(tustin_second_order(20.0, 0.2, T))
+    b, a = _section_tf(second_order_section(20.0, 0.2, T))
     g, _ = scipy.signal.lfilter(b, a, h, zi=scipy.signal.lfilter_zi(b, a) * h[0])
     expected = np.concatenate((np.full(2, g[0]), g[:-2]))
     t = np.arange(v.size) * T
@@ -313,7 +352,7 @@ def test_stage_parameters_are_what_the_c_stages_run():
 
 @pytest.mark.parametrize("stages", [
     OutputStages(delay_samples=3.0),
-    OutputStages([tustin_second_order(15.0, 0.25, T)]),
+    OutputStages([second_order_section(15.0, 0.25, T)]),
 ])
 def test_identify_through_a_linear_stage_recovers_parameters(stages, rng):
     truth = paper_model(voltage_range=(0.0, 1.0))

@@ -23,8 +23,8 @@ import pytest
 from test_fmu_extended import T, extended, fmus
 
 from pysim.core import kernel
-from pysim.core.extended import OutputStages, OutputStagesStruct, tustin_creep_mode, tustin_first_order, \
-    tustin_second_order
+from pysim.core.extended import OutputStages, OutputStagesStruct, tustin_creep_mode, first_order_section, \
+    second_order_section
 from pysim.fmu.compile import fmi_include_dir
 from pysim.testing.fmus import ERROR, OK, WARNING, RawFMU, extracted
 
@@ -52,9 +52,9 @@ def _p(array):
 def random_stages(rng) -> OutputStages:
     sections = []
     if rng.random() < 0.6:
-        sections.append(tustin_first_order(10 ** rng.uniform(-3.5, -1), T))
+        sections.append(first_order_section(10 ** rng.uniform(-3.5, -1), T))
     if rng.random() < 0.6:
-        sections.append(tustin_second_order(10 ** rng.uniform(1, 3), rng.uniform(0.02, 1.0), T))
+        sections.append(second_order_section(10 ** rng.uniform(1, 3), rng.uniform(0.02, 1.0), T))
     delay = float(rng.choice([0.0, 0.4, 1.0, 2.5, 3.0, 17.0, 40.75]))
     modes = [tustin_creep_mode(10 ** rng.uniform(-2, 0), T) for _ in range(rng.integers(0, 3))]
     return OutputStages(sections or (), delay, [m[0] for m in modes], [m[1] for m in modes],

@@ -25,9 +25,14 @@ actuators show beyond that (see :mod:`pysim.diagnosis.diagnose`)::
 
 Every stage is discrete at ``sample_period_s``: the model is a sampled-data
 model of the record it was identified from, and an FMU built from it must step
-at that period.  Continuous stages are discretised with the bilinear (Tustin)
-transform, which keeps the static gain exactly and needs only arithmetic, so the
-coefficients are the same on every platform.  The recursions run in C
+at that period.  The lag and the resonance are discretised exactly for an input
+that is linear between samples (first-order hold: :func:`first_order_section`,
+:func:`second_order_section`): a measured actuator's lag may be shorter than a
+sample, where the bilinear transform's pole turns negative and its response
+rings, and a resonance near the Nyquist frequency keeps its physical frequency.
+Creep modes (time constants of several samples and more, where the two agree)
+use the bilinear transform, whose form the displacement-creep factoring needs.
+The coefficients are computed once, here, and handed to the C recursions
 (``fmu_src/output_stages.c``), the same code the plant FMU compiles.
 
 The model starts at rest: the stages are initialised as if the first sample's
@@ -41,6 +46,7 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 import scipy.optimize
+import scipy.signal
 
 from pysim.core import kernel as _kernel
 from pysim.core.errors import ModelError
@@ -94,30 +100,56 @@ def _library():
 
 # ------------------------------------------------------------ discretisation
 
-def tustin_first_order(time_constant_s: float, sample_period_s: float) -> np.ndarray:
-    """Section ``(b0, b1, b2, a1, a2)`` of ``1/(τ s + 1)`` under the bilinear transform.
+def first_order_section(time_constant_s: float, sample_period_s: float) -> np.ndarray:
+    """Section ``(b0, b1, b2, a1, a2)`` of ``1/(τ s + 1)``, exact for an input that is
+    linear between samples (first-order hold).
 
-    With ``K = 2/T``: ``(1 + z⁻¹) / ((1 + τK) + (1 − τK) z⁻¹)``; static gain exactly 1.
+    With ``h = T/τ`` and ``α = exp(−h)``: ``(b0 + b1 z⁻¹) / (1 − α z⁻¹)`` where
+    ``b1 = (1 − α)/h − α`` and ``b0 = 1 − α − b1``, so the static gain is 1.  The
+    pole ``α`` lies in ``(0, 1)`` for every τ > 0: the step response rises
+    monotonically, also for a lag shorter than a sample (where the bilinear
+    transform's pole turns negative and the response rings), and a lag that
+    tends to zero tends to no stage at all.
+
+    Examples
+    --------
+    >>> b0, b1, b2, a1, a2 = first_order_section(0.25e-3, 1e-3)
+    >>> [round(float(c), 4) for c in (b0, b1, -a1, (b0 + b1) / (1 + a1))]
+    [0.7546, 0.2271, 0.0183, 1.0]
     """
-    tk = 2.0 * time_constant_s / sample_period_s
-    d0 = 1.0 + tk
-    return np.array([1.0 / d0, 1.0 / d0, 0.0, (1.0 - tk) / d0, 0.0])
+    h = float(sample_period_s) / float(time_constant_s)
+    gain = -math.expm1(-h)                  # 1 − α, accurate for slow lags
+    alpha = 1.0 - gain
+    b1 = gain / h - alpha
+    return np.array([gain - b1, b1, 0.0, -alpha, 0.0])
 
 
-def tustin_second_order(natural_frequency_hz: float, damping_ratio: float,
-                        sample_period_s: float) -> np.ndarray:
-    """Section of ``ω²/(s² + 2ζω s + ω²)`` (ω = 2π f) under the bilinear transform.
+def second_order_section(natural_frequency_hz: float, damping_ratio: float,
+                         sample_period_s: float) -> np.ndarray:
+    """Section ``(b0, b1, b2, a1, a2)`` of ``ω²/(s² + 2ζω s + ω²)`` (ω = 2π f), exact for
+    an input that is linear between samples (first-order hold).
 
-    ``s = K (1 − z⁻¹)/(1 + z⁻¹)``, ``K = 2/T``: numerator ``ω² (1 + z⁻¹)²``,
-    denominator ``(K² + 2ζωK + ω²) + 2(ω² − K²) z⁻¹ + (K² − 2ζωK + ω²) z⁻²``.
+    The poles are ``exp(s_i T)`` of the continuous poles, so the natural
+    frequency and damping are the physical ones up to the Nyquist frequency (the
+    bilinear transform warps a resonance near it); the numerator is scaled so
+    the static gain is 1 to rounding.
+
+    Examples
+    --------
+    >>> b0, b1, b2, a1, a2 = second_order_section(300.0, 0.3, 1e-3)
+    >>> gain = (b0 + b1 + b2) / (1 + a1 + a2)           # static gain
+    >>> pole_radius = math.sqrt(a2)                     # exp(-ζωT) of the continuous poles
+    >>> round(float(gain), 12), round(pole_radius / math.exp(-0.3 * 2 * math.pi * 300 * 1e-3), 12)
+    (1.0, 1.0)
     """
-    w = 2.0 * math.pi * natural_frequency_hz
-    k = 2.0 / sample_period_s
-    d0 = k * k + 2.0 * damping_ratio * w * k + w * w
-    d1 = 2.0 * (w * w - k * k)
-    d2 = k * k - 2.0 * damping_ratio * w * k + w * w
-    g = w * w / d0
-    return np.array([g, 2.0 * g, g, d1 / d0, d2 / d0])
+    w = 2.0 * math.pi * float(natural_frequency_hz)
+    zeta = float(damping_ratio)
+    num, den, _ = scipy.signal.cont2discrete(([w * w], [1.0, 2.0 * zeta * w, w * w]), float(sample_period_s),
+                                             method="foh")
+    b = np.ravel(num)[-3:]
+    a = np.ravel(den)
+    b = b * (np.sum(a) / np.sum(b))
+    return np.array([b[0], b[1], b[2], a[1], a[2]])
 
 
 def tustin_creep_mode(time_constant_s: float, sample_period_s: float):
@@ -263,7 +295,7 @@ class OutputStages:
 
         Examples
         --------
-        >>> stages = OutputStages([tustin_first_order(0.01, 1e-3)], delay_samples=1.5,
+        >>> stages = OutputStages([first_order_section(0.01, 1e-3)], delay_samples=1.5,
         ...                       creep_alpha=[0.9], creep_beta=[0.05], creep_weights=[0.2])
         >>> part = stages.linear_part()
         >>> part.sections.shape, part.delay_samples, part.creep_weights.size
@@ -427,9 +459,9 @@ class StageSpec:
         T = self.sample_period_s
         sections = []
         if self.lag_time_constant_s > 0:
-            sections.append(tustin_first_order(self.lag_time_constant_s, T).tolist())
+            sections.append(first_order_section(self.lag_time_constant_s, T).tolist())
         if self.resonance_hz > 0:
-            sections.append(tustin_second_order(self.resonance_hz, self.damping_ratio, T).tolist())
+            sections.append(second_order_section(self.resonance_hz, self.damping_ratio, T).tolist())
         sections += tustin_displacement_creep(self.displacement_creep_time_constants_s,
                                               self.displacement_creep_shares, T)
         creep = [tustin_creep_mode(tau, T) for tau in self.creep_time_constants_s]

@@ -75,8 +75,8 @@ from pysim.core.extended import (
     StageSpec,
     tustin_creep_mode,
     tustin_displacement_creep,
-    tustin_first_order,
-    tustin_second_order,
+    first_order_section,
+    second_order_section,
 )
 from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.input_stages import InputStageModel, apply_input_stage
@@ -344,20 +344,20 @@ class CandidateFitter:
             return self._with(base, "rate_dependence",
                               parameters={"order": 2, "natural_frequency_hz": f2, "damping_ratio": z2},
                               stages={"resonance_hz": f2, "damping_ratio": z2},
-                              transform=OutputStages([tustin_second_order(f2, z2, T)]))
+                              transform=OutputStages([second_order_section(f2, z2, T)]))
         tau = lag[0]
         return self._with(base, "rate_dependence", parameters={"order": 1, "time_constant_s": tau},
                           stages={"lag_time_constant_s": tau},
-                          transform=OutputStages([tustin_first_order(tau, T)]))
+                          transform=OutputStages([first_order_section(tau, T)]))
 
     def _lag_search(self, base: Family) -> tuple:
         """``(time_constant_s, sse)`` of the best first-order lag after ``base``."""
         T = self.T
         rows = self.search_rows.stop - self.search_rows.start
-        log_tau = np.linspace(0.0, math.log(max(2.0, rows / 20.0)), 14)
+        log_tau = np.linspace(math.log(0.05), math.log(max(2.0, rows / 20.0)), 16)
 
         def first(x):
-            return self._stage_sse(base, OutputStages([tustin_first_order(math.exp(x) * T, T)]))
+            return self._stage_sse(base, OutputStages([first_order_section(math.exp(x) * T, T)]))
 
         scores = [first(x) for x in log_tau]
         i = int(np.argmin(scores))
@@ -385,7 +385,7 @@ class CandidateFitter:
             return f, min(max(math.exp(x[1]), z_min), math.exp(z_range[1]))
 
         def second(x):
-            return self._stage_sse(base, OutputStages([tustin_second_order(*clip(x), T)]))
+            return self._stage_sse(base, OutputStages([second_order_section(*clip(x), T)]))
 
         sse2, a, b = min((second((a, b)), a, b) for a in log_f for b in log_z)
         refined = scipy.optimize.minimize(second, x0=[a, b], method="Nelder-Mead",
@@ -536,7 +536,7 @@ class CandidateFitter:
 
     def rate_dependent_hysteresis(self, base: Family) -> Family:
         rows = self.search_rows.stop - self.search_rows.start
-        grid = np.linspace(math.log(0.3 * self.T), math.log(max(3.0, rows / 20.0) * self.T), 12)
+        grid = np.linspace(math.log(0.05 * self.T), math.log(max(3.0, rows / 20.0) * self.T), 14)
         tau = self._input_search(base, "lowpass", grid)
         return self._with(base, "rate_dependent_hysteresis",
                           parameters={"input_time_constant_s": tau}, input_stage=("lowpass", tau))

@@ -2,8 +2,8 @@
 that act on the voltage the actuator sees rather than on its output:
 
 ``rate_dependent_hysteresis``
-    A first-order low-pass on the input, ``1/(τ s + 1)`` (bilinear transform,
-    unit static gain): the operators see a lagged voltage, so loops widen with
+    A first-order low-pass on the input, ``1/(τ s + 1)`` (exact for an input
+    linear between samples, unit static gain): the operators see a lagged voltage, so loops widen with
     frequency -- unlike a lag after the hysteresis, which delays the whole
     output, including its rate-independent part.
 ``slew_limit``
@@ -24,14 +24,15 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.signal
 
-from pysim.core.extended import tustin_first_order
+from pysim.core.extended import first_order_section
 from pysim.diagnosis.errors import DiagnosisError
 
 INPUT_STAGE_KINDS = ("lowpass", "slew_limit")
 
 
 def input_lowpass(voltage_V, time_constant_s: float, sample_period_s: float) -> np.ndarray:
-    """First-order low-pass of the input (bilinear transform), at rest at the first sample.
+    """First-order low-pass of the input, at rest at the first sample
+    (:func:`~pysim.core.extended.first_order_section`).
 
     Examples
     --------
@@ -42,7 +43,7 @@ def input_lowpass(voltage_V, time_constant_s: float, sample_period_s: float) -> 
     v = np.asarray(voltage_V, dtype=float).ravel()
     if not time_constant_s > 0:
         return v.copy()
-    b0, b1, _, a1, _ = tustin_first_order(time_constant_s, sample_period_s)
+    b0, b1, _, a1, _ = first_order_section(time_constant_s, sample_period_s)
     zi = scipy.signal.lfilter_zi([b0, b1], [1.0, a1]) * (v[0] if v.size else 0.0)
     out, _ = scipy.signal.lfilter([b0, b1], [1.0, a1], v, zi=zi)
     return out

@@ -887,6 +887,14 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
             # the pivoting named another column (the offset, against an operator the input never
             # reaches): the widest operator goes first
             dependent_ops = [max(own, key=lambda j: r[j])]
+        if rank < n_hyst and not dependent_ops and own:
+            # the pivoting named the offset or u, but operators are in the dependence (two operators
+            # whose states follow the input in lockstep over these rows, each a shifted copy of it):
+            # they are read off the null vector, and the widest of them goes first
+            _, _, vt = np.linalg.svd(R_probe[:n_hyst])
+            null = np.zeros(n_hyst)
+            null[pivots] = vt[-1]
+            dependent_ops = [i for i in own if abs(null[column_of[i]]) > 1e-6 * float(np.max(np.abs(null)))]
         if rank < n_hyst and not dependent_ops and cubic:
             # u³ is a combination of u and the offset: the samples take two input levels (steps
             # between two voltages), which show no loop curvature; the model is fitted without it
