@@ -527,8 +527,8 @@ def test_a_resonance_near_the_sample_rate_is_told_from_a_delay_by_its_excitation
     ζ 0.8, simulated finely by the independent generator) after a plant of 26 operators off the eq. 13
     grid.  Below fs/20 it is a 0.75-sample delay: the records (steps, a sine) tie it with a delay and
     a low-pass before the hysteresis.  The excitation written for the set has to reach where the
-    stage shows its shape, and the resonance search has to reach its corner (the bilinear transform
-    puts a continuous fs/3 at 0.26 fs, so a search stopped at fs/3 could not): played on the same
+    stage shows its shape, and the resonance search has to reach its corner (it runs up to the sample
+    rate): played on the same
     actuator (another noise draw), the record it gives names the stage."""
     import independent_records
 
