@@ -35,6 +35,18 @@ def random_piecewise_monotone(rng, n_segments=40, lo=0.0, hi=1.0, points_per_seg
     return np.concatenate(pieces)
 
 
+def continuous_response(num, den, x, dt_s):
+    """Response of the continuous transfer function ``num/den`` to ``x`` taken as linear between
+    its samples (every ``dt_s`` s), at rest at ``x[0]``: scipy's matrix-exponential simulation, an
+    implementation independent of the stage sections."""
+    import scipy.signal
+
+    a, b, c, d = scipy.signal.tf2ss(num, den)
+    rest = np.linalg.solve(a, -b[:, 0] * x[0])
+    _, y, _ = scipy.signal.lsim((a, b, c, d), x, np.arange(x.size) * dt_s, X0=rest, interp=True)
+    return y
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(20141)

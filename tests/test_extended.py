@@ -6,7 +6,7 @@ import ctypes
 import numpy as np
 import pytest
 import scipy.signal
-from conftest import paper_input, paper_model, random_piecewise_monotone
+from conftest import continuous_response, paper_input, paper_model, random_piecewise_monotone
 
 from pysim.core.extended import (
     ExtendedModel,
@@ -14,10 +14,10 @@ from pysim.core.extended import (
     OutputStages,
     StageSpec,
     _library,
-    tustin_creep_mode,
-    tustin_displacement_creep,
     first_order_section,
     second_order_section,
+    tustin_creep_mode,
+    tustin_displacement_creep,
 )
 from pysim.core.model import HysteresisModel
 from pysim.core.spec import load_spec, write_spec
@@ -37,17 +37,6 @@ def _section_tf(section):
 
 # ----------------------------------------------------------- discretisation
 
-def _continuous_response(num, den, x, dt_s):
-    """Response of ``num/den`` (continuous) to ``x`` taken as linear between its
-    samples, at rest at ``x[0]``: scipy's matrix-exponential simulation (a second
-    implementation)."""
-    a, b, c, d = scipy.signal.tf2ss(num, den)
-    rest = np.linalg.solve(a, -b[:, 0] * x[0])
-    t = np.arange(x.size) * dt_s
-    _, y, _ = scipy.signal.lsim((a, b, c, d), x, t, X0=rest, interp=True)
-    return y
-
-
 def _run_section(section, x):
     b, a = _section_tf(section)
     return scipy.signal.lfilter(b, a, x, zi=scipy.signal.lfilter_zi(b, a) * x[0])[0]
@@ -56,7 +45,7 @@ def _run_section(section, x):
 @pytest.mark.parametrize("tau", [0.1e-3, 0.5e-3, 3e-3, 0.2])
 def test_first_order_section_is_the_lag_of_a_piecewise_linear_input(tau, rng):
     x = np.cumsum(rng.normal(size=4000))
-    expected = _continuous_response([1.0], [tau, 1.0], x, T)
+    expected = continuous_response([1.0], [tau, 1.0], x, T)
     np.testing.assert_allclose(_run_section(first_order_section(tau, T), x), expected, atol=1e-9 * np.ptp(x))
     b, a = _section_tf(first_order_section(tau, T))
     assert b.sum() / a.sum() == pytest.approx(1.0, abs=1e-14)
@@ -84,7 +73,7 @@ def test_a_lag_shorter_than_half_a_sample_does_not_ring(tau):
 def test_second_order_section_is_the_resonance_of_a_piecewise_linear_input(f, zeta, rng):
     w = 2 * np.pi * f
     x = np.cumsum(rng.normal(size=4000))
-    expected = _continuous_response([w * w], [1.0, 2 * zeta * w, w * w], x, T)
+    expected = continuous_response([w * w], [1.0, 2 * zeta * w, w * w], x, T)
     got = _run_section(second_order_section(f, zeta, T), x)
     np.testing.assert_allclose(got, expected, atol=1e-8 * np.ptp(x))
     b, a = _section_tf(second_order_section(f, zeta, T))

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.signal
+from conftest import continuous_response
 from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
@@ -110,15 +111,6 @@ def _bilinear_rest(b, a, x):
     return y
 
 
-def _continuous_rest(num, den, x):
-    """The continuous stage ``num/den`` driven by x taken as linear between samples, at rest at
-    x[0]: scipy's matrix-exponential simulation (an independent implementation)."""
-    a, b, c, d = scipy.signal.tf2ss(num, den)
-    rest = np.linalg.solve(a, -b[:, 0] * x[0])
-    _, y, _ = scipy.signal.lsim((a, b, c, d), x, np.arange(x.size) * T, X0=rest, interp=True)
-    return y
-
-
 @pytest.mark.parametrize("kind", ["lag", "second_order", "delay", "creep", "drift", "displacement_creep"])
 def test_plant_fmu_stages_match_independent_implementations(kind):
     """FMU output against the hysteresis output passed through each stage as
@@ -132,10 +124,10 @@ def test_plant_fmu_stages_match_independent_implementations(kind):
     t = np.arange(v.size) * T
     p = STAGES[kind]
     if kind == "lag":
-        expected = _continuous_rest([1.0], [p["lag_time_constant_s"], 1.0], h)
+        expected = continuous_response([1.0], [p["lag_time_constant_s"], 1.0], h, T)
     elif kind == "second_order":
         w, zeta = 2 * np.pi * p["resonance_hz"], p["damping_ratio"]
-        expected = _continuous_rest([w * w], [1.0, 2 * zeta * w, w * w], h)
+        expected = continuous_response([w * w], [1.0, 2 * zeta * w, w * w], h, T)
     elif kind == "delay":
         m, f = int(p["delay_samples"]), p["delay_samples"] % 1.0
         padded = np.concatenate((np.full(m + 1, h[0]), h))      # h[0] held since forever

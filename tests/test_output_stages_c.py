@@ -23,8 +23,8 @@ import pytest
 from test_fmu_extended import T, extended, fmus
 
 from pysim.core import kernel
-from pysim.core.extended import OutputStages, OutputStagesStruct, tustin_creep_mode, first_order_section, \
-    second_order_section
+from pysim.core.extended import OutputStages, OutputStagesStruct, first_order_section, second_order_section, \
+    tustin_creep_mode
 from pysim.fmu.compile import fmi_include_dir
 from pysim.testing.fmus import ERROR, OK, WARNING, RawFMU, extracted
 

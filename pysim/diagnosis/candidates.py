@@ -73,10 +73,10 @@ from pysim.core.extended import (
     ExtendedState,
     OutputStages,
     StageSpec,
-    tustin_creep_mode,
-    tustin_displacement_creep,
     first_order_section,
     second_order_section,
+    tustin_creep_mode,
+    tustin_displacement_creep,
 )
 from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.input_stages import InputStageModel, apply_input_stage

@@ -3,9 +3,10 @@ that act on the voltage the actuator sees rather than on its output:
 
 ``rate_dependent_hysteresis``
     A first-order low-pass on the input, ``1/(τ s + 1)`` (exact for an input
-    linear between samples, unit static gain): the operators see a lagged voltage, so loops widen with
-    frequency -- unlike a lag after the hysteresis, which delays the whole
-    output, including its rate-independent part.
+    linear between samples, unit static gain): the operators see a lagged
+    voltage, so loops widen with frequency -- unlike a lag after the
+    hysteresis, which delays the whole output, including its rate-independent
+    part.
 ``slew_limit``
     An amplifier whose output follows the command at most at ``rate_V_per_s``:
     ``x_k = x_{k−1} + clip(v_k − x_{k−1}, −R T, R T)``.  Slow inputs pass
