@@ -85,20 +85,26 @@ def test_identify_table_and_other_layouts(tmp_path):
 
 
 def test_a_header_in_other_units_gives_the_same_fit_and_says_how_it_was_read(tmp_path, capsys):
-    """The shipped record written in ms, mV and nm under other names: the same model (the
-    numbers differ only by the rounding of the conversion), the reading on stderr, the JSON on stdout
-    untouched."""
+    """The shipped record written in ms, mV and nm under other names: read back as the same
+    record (to the rounding of the conversion), the same model, the reading on stderr, the JSON on
+    stdout untouched.  The model is the same to the tolerance of the operator-state search, not to
+    the rounding: this record does not pin the state of its upper operators, and a change in the
+    last digit of the input can move the multi-start search to another state that fits as well
+    (seen on one machine: RMS 0.2940 % and 0.2944 % of range, a2 within 0.1 %)."""
     data = load_measured(shipped_dataset("smart_hysteresis"))
     other = tmp_path / "other_units.csv"
     np.savetxt(other, np.column_stack([data.time_s * 1e3, data.voltage_V * 1e3, data.displacement_um * 1e3]),
                delimiter=";", header="Time [ms];Voltage [mV];Position [nm]", comments="")
+    read_back = load_measured(other)
+    for name in ("time_s", "voltage_V", "displacement_um"):
+        np.testing.assert_allclose(getattr(read_back, name), getattr(data, name), rtol=1e-12, atol=1e-12)
     assert main(["identify", str(shipped_dataset("smart_hysteresis")), "--json"]) == 0
     standard = json.loads(capsys.readouterr().out)
     assert main(["identify", str(other), "--json"]) == 0
     captured = capsys.readouterr()
     converted = json.loads(captured.out)
-    assert converted["rms_error_pct"] == pytest.approx(standard["rms_error_pct"], rel=1e-6)
-    assert converted["parameters"]["a2_um_per_V"] == pytest.approx(standard["parameters"]["a2_um_per_V"], rel=1e-4)
+    assert converted["rms_error_pct"] == pytest.approx(standard["rms_error_pct"], rel=1e-2)
+    assert converted["parameters"]["a2_um_per_V"] == pytest.approx(standard["parameters"]["a2_um_per_V"], rel=1e-2)
     assert converted["parameters"]["thresholds_V"] == pytest.approx(standard["parameters"]["thresholds_V"])
     assert "'Time [ms]' read as time_s (ms to s" in captured.err
     assert "'Position [nm]' read as displacement_um (nm to µm" in captured.err

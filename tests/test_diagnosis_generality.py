@@ -667,6 +667,36 @@ def test_an_effect_that_only_two_large_steps_show_is_named_by_the_responses_to_t
     assert d.cause == "slew_limit" and d.causes == ("slew_limit",), d.why
 
 
+def test_an_extension_whose_hysteresis_part_misses_a_new_input_is_not_delivered_behind_a_shape_correction():
+    """Truth (the independent generator's pair 503): a 40 V/ms slew limit, shown by two full-range
+    steps of a first record of steps and sines after an unknown history; the second record is a
+    sine.  The slew limit is named by the responses to the steps, but its model, fitted with its
+    own hysteresis part on that record, predicts the sine far worse than the plain fit.  On the
+    second record the input's path predicts most of what every model leaves, and after that
+    correction -- itself a rate-independent fit of the sine -- the two models differ only in the
+    first samples, so the comparison saw no difference.  Compared as fitted, the plain fit is
+    delivered.  The judge is a third record, a decaying triangle given to neither: the model
+    delivered predicts it no worse than the plain fit (the slew limit's model: 2.2 times its RMS)."""
+    import independent_records
+
+    pair = independent_records.make_pair(503)
+    assert pair.truth.effect == "slew_limit"
+    d = _validated(pair)
+    assert d.cause == "slew_limit", d.why
+    assert d.validation.get("shape"), d.validation      # the correction that hid the difference
+    assert d.validation["delivered"] == "baseline" and d.validation["withheld"] == "slew_limit", d.validation
+    withheld = d.validation["withheld_sigma2"]
+    assert withheld["slew_limit"] > 2 * withheld["baseline"], withheld
+
+    test, part = pair.test, slice(pair.test.settle_samples, None)
+
+    def rms(model):
+        return float(np.sqrt(np.mean((model.simulate(test.voltage_V)[part] - test.clean_um[part]) ** 2)))
+
+    assert rms(d.extended.model) <= rms(d.baseline.model) * (1 + 1e-9)
+    assert rms(d.candidates["slew_limit"].fit.model) > 1.5 * rms(d.baseline.model)
+
+
 def test_a_resonance_near_nyquist_is_found_at_its_own_frequency_on_steps():
     """Truth (the independent generator's pair 161): a 333 Hz resonance, ζ 0.46, at 1 kHz.  The
     first record (steps and sines from an unknown history) shows it only in its responses to five

@@ -119,6 +119,9 @@ from pysim.identification.identify import IdentificationError, identify, require
 
 __all__ = ["diagnose", "Diagnosis"]
 
+#: Per-sample arrays of a model's second-record scores, left out of the JSON.
+_VALIDATION_ARRAYS = ("prediction_um", "scored_rows", "as_fitted_prediction_um")
+
 
 @dataclass
 class Diagnosis:
@@ -244,7 +247,7 @@ class Diagnosis:
                 "static_gain_um_per_V": _static_gain(ev.fit.model),
                 "character_split_rms_pct": ev.character.get("rms_pct"),
                 "validation": None if ev.validation is None else _plain(
-                    {k: x for k, x in ev.validation.items() if k not in ("prediction_um", "scored_rows")}),
+                    {k: x for k, x in ev.validation.items() if k not in _VALIDATION_ARRAYS}),
             }
         span = float(np.ptp(self.displacement_um))
         ident = self.baseline.fit.result
@@ -802,7 +805,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     # the plain fit does (operators the first record barely moves, a range it never reaches): one that
     # predicts the second record worse is not a better model of the actuator, so it is not delivered
     # (the cause it names still stands)
-    misleads = (predicts_second_record_better(extended, baseline, y2, validation["noise_um"])
+    misleads = (predicts_second_record_better(extended, baseline, y2, validation["noise_um"], as_fitted=True)
                 if validation is not None and extended is not plain else None)
     if misleads is not None:
         withheld_sentence = (

@@ -490,12 +490,18 @@ def best_fitted_on_both_records(fitter: CandidateFitter, candidates: dict, cause
     return best, {c: (first[c], second[c]) for c in (current, best)}
 
 
-def predicts_second_record_better(reference, candidate, y2, noise2_um: float):
+def predicts_second_record_better(reference, candidate, y2, noise2_um: float, as_fitted: bool = False):
     """``(reference's, candidate's)`` mean-square errors on the second record, in σ², when the
     candidate's prediction of that record is the better one -- by at least ``NEAR_NOISE_FRACTION``
     σ² on the samples both were scored on, and by more than the noise can make
     (:func:`advantage_holds`); None otherwise (also when one was not scored, or they share fewer
     than 100 scored samples).
+
+    With ``as_fitted``, the predictions are compared as the models made them, before a
+    hysteresis-shape correction of that record (:func:`pysim.diagnosis.shape.correct_validation_for_shape`):
+    the correction is a rate-independent fit of the second record itself, so it also absorbs how
+    badly a model's hysteresis part carries to that input -- which is what this compares when it
+    asks whether an extension predicts a new input better than the plain fit.
 
     Examples
     --------
@@ -516,7 +522,8 @@ def predicts_second_record_better(reference, candidate, y2, noise2_um: float):
     def on_rows(ev):
         out = np.full(y2.size, np.nan)
         rows = ev.validation["scored_rows"]
-        out[rows] = ev.validation["prediction_um"][rows]
+        prediction = ev.validation.get("as_fitted_prediction_um") if as_fitted else None
+        out[rows] = (ev.validation["prediction_um"] if prediction is None else prediction)[rows]
         return out
 
     a, b = on_rows(reference), on_rows(candidate)

@@ -136,6 +136,9 @@ def correct_validation_for_shape(evaluations, v2, y2, noise2_um, memory2) -> dic
     for i, ev in enumerate(evaluations):
         mse = score(i, corrected[i])
         span = float(np.ptp(y2[rows[i]]))
+        # the prediction as fitted is kept: whether a model carries its hysteresis part to a new input
+        # is what the correction hides (it is itself a rate-independent fit of that record)
         ev.validation = dict(ev.validation, prediction_um=corrected[i], mse_um2=mse,
-                             rms_pct=100.0 * math.sqrt(mse) / span, shape_corrected=True)
+                             rms_pct=100.0 * math.sqrt(mse) / span, shape_corrected=True,
+                             as_fitted_prediction_um=ev.validation["prediction_um"])
     return evidence
