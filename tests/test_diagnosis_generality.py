@@ -816,15 +816,23 @@ def test_the_model_delivered_for_a_set_is_the_member_that_predicts_the_second_re
     first record's hysteresis part to a new input very differently.  The delivered model is the
     member that predicts the second record best; the set is unchanged, and the delivered model
     predicts the third record (a multisine, band-limited noise; never given) better than the
-    plain fit, which the set's first member did not on 153 (1.04x the plain fit's RMS)."""
+    plain fit, which the set's first member did not on 153 (1.04x the plain fit's RMS).
+
+    Which member the tie puts first can differ from one machine to another (on 201, creep and the
+    resonance leave 1.37 and 1.46 σ² on the second record): when the first member already predicts
+    the second record best, nothing is moved, and the model delivered is still that member."""
     import independent_records
 
     pair = independent_records.make_pair(seed)
     assert pair.truth.effect == "rate_dependence"
     d = _validated(pair)
     assert len(d.causes) > 1 and "rate_dependence" in d.causes, d.why
-    assert d.validation["delivered"] == d.cause and d.extended.cause == d.cause, d.why
-    assert d.cause in d.validation["delivered_sigma2"] and "is the model delivered" in d.why
+    assert d.extended.cause == d.cause, d.why
+    if d.validation.get("delivered") is not None:
+        assert d.validation["delivered"] == d.cause, d.why
+        assert d.cause in d.validation["delivered_sigma2"] and "is the model delivered" in d.why
+    elif seed == 153:
+        pytest.fail(f"the set's first member was not moved: {d.why}")
     noise2 = d.validation["noise_um"]
     on_second = {c: d.candidates[c].validation["mse_um2"] / noise2**2 for c in d.causes}
     assert on_second[d.cause] == min(on_second.values()), on_second
