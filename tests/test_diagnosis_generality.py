@@ -554,9 +554,7 @@ def test_a_resonance_that_only_ties_a_fraction_of_a_sample_delay_does_not_displa
     assert pair.truth.effect == "delay"
     d = _validated(pair)
     assert d.cause == "delay", d.why
-    test = pair.test
-    part = slice(test.settle_samples, None)
-    rms = {label: float(np.sqrt(np.mean((model.simulate(test.voltage_V)[part] - test.clean_um[part]) ** 2)))
+    rms = {label: _third_record_rms(pair, model)
            for label, model in (("plain", d.baseline.fit.model), ("extended", d.extended.fit.model))}
     assert rms["extended"] < rms["plain"], rms
 
@@ -687,14 +685,9 @@ def test_an_extension_whose_hysteresis_part_misses_a_new_input_is_not_delivered_
     assert d.validation["delivered"] == "baseline" and d.validation["withheld"] == "slew_limit", d.validation
     withheld = d.validation["withheld_sigma2"]
     assert withheld["slew_limit"] > 2 * withheld["baseline"], withheld
-
-    test, part = pair.test, slice(pair.test.settle_samples, None)
-
-    def rms(model):
-        return float(np.sqrt(np.mean((model.simulate(test.voltage_V)[part] - test.clean_um[part]) ** 2)))
-
-    assert rms(d.extended.model) <= rms(d.baseline.model) * (1 + 1e-9)
-    assert rms(d.candidates["slew_limit"].fit.model) > 1.5 * rms(d.baseline.model)
+    plain = _third_record_rms(pair, d.baseline.model)
+    assert _third_record_rms(pair, d.extended.model) <= plain * (1 + 1e-9)
+    assert _third_record_rms(pair, d.candidates["slew_limit"].fit.model) > 1.5 * plain
 
 
 def test_a_resonance_near_nyquist_is_found_at_its_own_frequency_on_steps():
@@ -836,11 +829,7 @@ def test_the_model_delivered_for_a_set_is_the_member_that_predicts_the_second_re
     noise2 = d.validation["noise_um"]
     on_second = {c: d.candidates[c].validation["mse_um2"] / noise2**2 for c in d.causes}
     assert on_second[d.cause] == min(on_second.values()), on_second
-    test = pair.test
-    rms = {}
-    for label, ev in (("plain", d.baseline), ("delivered", d.extended)):
-        error = (ev.model.simulate(test.voltage_V) - test.clean_um)[test.settle_samples:]
-        rms[label] = float(np.sqrt(np.mean(error**2)))
+    rms = {label: _third_record_rms(pair, ev.model) for label, ev in (("plain", d.baseline), ("delivered", d.extended))}
     assert rms["delivered"] < 0.7 * rms["plain"], rms
 
 
@@ -868,12 +857,9 @@ def test_an_extension_that_predicts_the_second_record_worse_than_the_plain_fit_i
     errors = d.validation["withheld_sigma2"]
     assert errors["slew_limit"] > errors["baseline"] + 1.0, errors
     assert "the model delivered is the plain fit" in d.why
-    test = pair.test
-    rms = {}
-    for label, model in (("plain", d.baseline.model), ("slew model", d.candidates["slew_limit"].model),
-                         ("delivered", d.extended.model)):
-        error = (model.simulate(test.voltage_V) - test.clean_um)[test.settle_samples:]
-        rms[label] = float(np.sqrt(np.mean(error**2)))
+    rms = {label: _third_record_rms(pair, model)
+           for label, model in (("plain", d.baseline.model), ("slew model", d.candidates["slew_limit"].model),
+                                ("delivered", d.extended.model))}
     assert rms["slew model"] > 1.2 * rms["plain"] and rms["delivered"] <= rms["plain"], rms
     # every output says what is delivered, and the JSON keeps its format
     assert "the model delivered is the plain fit" in summary_markdown(d)
@@ -918,9 +904,7 @@ def test_a_first_record_that_misses_part_of_the_range_hands_the_fit_to_the_secon
     d = diagnose(v1, y1, fs, validate=(other.voltage_V, other.displacement_um, fs))
     assert d.records_swapped and "would extrapolate over 16 % of that range" in d.swap_reason, d.why
     assert "rate_dependence" in d.causes, d.why
-    test = pair.test
-    error = (d.extended.model.simulate(test.voltage_V) - test.clean_um)[test.settle_samples:]
-    assert float(np.sqrt(np.mean(error**2))) < pair.truth.noise_sigma_um, d.why
+    assert _third_record_rms(pair, d.extended.model) < pair.truth.noise_sigma_um, d.why
 
 
 def test_an_effect_the_second_records_own_fit_cannot_take_is_left_out_there(plant, monkeypatch):
