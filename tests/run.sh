@@ -5,8 +5,11 @@
 #      test and bench extras, into a fresh virtual environment;
 #   3. from an empty folder, runs `pysim demo` and `build-fmu` as a user would;
 #   4. runs the test suite from that empty folder against the installed package
-#      (tests/conftest.py checks that pysim is not imported from this checkout).
-# PIEZO_MPI_VENV names the environment to create (default: a temporary folder).
+#      (tests/conftest.py checks that pysim is not imported from this checkout),
+#      one worker process per core (pytest-xdist), each test file on one worker
+#      so that a file's shared fixtures are computed once.
+# PIEZO_MPI_VENV names the environment to create (default: a temporary folder);
+# PIEZO_MPI_TEST_WORKERS the number of worker processes (default: one per core).
 set -euo pipefail
 REPO="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$REPO"
@@ -61,4 +64,5 @@ EOF
 echo "== test suite against the installed package"
 cd "$WORK/user"
 PIEZO_MPI_TEST_INSTALLED=1 PIEZO_MPI_REPO="$REPO" \
-    "$VENV/bin/python" -m pytest -q -p no:cacheprovider -c "$REPO/pyproject.toml" --rootdir "$REPO" "$REPO/tests"
+    "$VENV/bin/python" -m pytest -q -p no:cacheprovider -c "$REPO/pyproject.toml" --rootdir "$REPO" \
+    -n "${PIEZO_MPI_TEST_WORKERS:-auto}" --dist loadfile "$REPO/tests"
