@@ -189,6 +189,8 @@ def test_a_quiet_second_record_that_the_cause_makes_worse_overrules_it(plant):
     d = diagnose(v1, y1, FS, validate=(v2, y2, FS))
     assert "rate_dependence" in d.cross_validation_causes, d.why
     assert d.cause == "none" and d.causes == (), d.why
+    # neither multisine holds a step: creep the hysteresis fit absorbs is not ruled out, and said so
+    assert "creep that the hysteresis fit absorbs on a moving input is not ruled out" in d.why
     assert d.validation["verdict_by"] == "second record", d.why
     # the text gives the second record's figures, and they agree with naming nothing there (it
     # used to quote the first record's 165 σ² removed "(needs 0.25)" beside the verdict none)
@@ -591,6 +593,8 @@ def test_dynamics_that_only_upward_steps_show_are_searched_on_them(plant, truth)
     d = diagnose(v1, noisy(respond(v1), 41), FS, validate=(v2, noisy(respond(v2), 42), FS))
     if truth == "none":
         assert d.cause == "none" and d.causes == (), d.why
+        # the second record holds each step 0.45 s: creep would have shown there
+        assert "not ruled out" not in d.why
         return
     assert d.cross_validation_cause == "none", d.why             # the sine alone shows nothing
     cause = "rate_dependence" if truth == "resonance" else "slew_limit"
@@ -1169,6 +1173,27 @@ def test_excitation_parts_hold_what_they_promise():
     assert freqs[freqs > 150.0][np.argmax(fast)] == pytest.approx(200.0, rel=0.02)
     near = (freqs > 48.0) & (freqs < 52.0)                                 # the fastest large burst, fs/20
     assert fast.max() < 0.5 * spectrum[near].max()
+
+
+@pytest.mark.parametrize("sample_rate_hz", [100.0, 2000.0, 25000.0])
+@pytest.mark.parametrize("causes", [["creep"], ["creep", "delay", "rate_dependence"], ["drift"]])
+def test_an_excitation_of_the_default_length_holds_every_step_long_enough_for_creep(causes, sample_rate_hz):
+    """A diagnosis that names nothing on a record without holds points to `pysim excite`: the
+    excitation it writes must hold each step CREEP_HOLD_S or more, at any sample rate, even when a
+    fitted creep is fast (which shortens the holds).  Counted as runs of identical samples."""
+    from pysim.diagnosis.excitation import samples_for_holds
+    from pysim.diagnosis.folds import CREEP_HOLD_S, holds_after_a_step
+
+    n = max(6000, samples_for_holds(causes, sample_rate_hz))
+    fast = {"creep": {"time_constants_s": [2.0 / sample_rate_hz]}}
+    for candidates in (None, fast):
+        v, plan = separating_excitation(causes, (0.0, 150.0), sample_rate_hz, n, candidates=candidates)
+        part = next(p for p in plan if p["purpose"].startswith("steps held long"))
+        steps_part = v[part["start_sample"]:part["start_sample"] + part["samples"]]
+        edges = np.flatnonzero(np.diff(steps_part) != 0)
+        runs = np.diff(np.r_[-1, edges, steps_part.size - 1])
+        assert runs.size == 6 and runs.min() >= math.ceil(CREEP_HOLD_S * sample_rate_hz), runs
+        assert holds_after_a_step(v, sample_rate_hz)
 
 
 def test_excitation_refuses_a_bad_range():

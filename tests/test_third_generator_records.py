@@ -209,3 +209,31 @@ def test_the_diagnosis_names_the_truth_and_its_model_predicts_the_third_record(s
     base = _rms(np.asarray(d.baseline.model.simulate(third.voltage_V))[settled] - third.clean_um[settled])
     extended = _rms(np.asarray(d.extended.model.simulate(third.voltage_V))[settled] - third.clean_um[settled])
     assert extended < base
+
+
+def test_a_none_verdict_that_hid_creep_points_to_an_excitation_that_shows_it():
+    """Seed 197: creep of 0.05 s and 0.71 s behind a multisine after a history.  The hysteresis fit
+    absorbs it (the diagnosis names nothing, a known miss), and the record holds no step, so the
+    verdict says creep is not ruled out and names the excitation to play.  That excitation, played
+    on the same actuator after the record (its noise as on the record), names creep: the truth of
+    the generator, which the diagnosis never saw."""
+    from pysim.diagnosis import diagnose
+    from pysim.diagnosis.excitation import samples_for_holds, separating_excitation
+
+    records = tg.make_third_records(197)
+    first, fs = records.train, records.sample_rate_hz
+    assert records.truth == "creep" and first.input_kind == "multisine"
+    d = diagnose(first.voltage_V, first.displacement_um, fs)
+    assert d.cause == "none", d.why
+    assert "creep that the hysteresis fit absorbs on a moving input is not ruled out" in d.why
+    assert "--causes creep" in d.why
+
+    # what `pysim excite RECORD --causes creep` writes: the record's range, at least its length
+    n = max(first.voltage_V.size, 6000, samples_for_holds(["creep"], fs))
+    voltage, _ = separating_excitation(["creep"], (first.voltage_V.min(), first.voltage_V.max()), fs, n)
+    before = first.voltage_V if first.history_V is None else np.r_[first.history_V[:-1], first.voltage_V]
+    _, clean = tg.simulate_record(records.plant, records.effect_parameters, voltage, fs, history_V=before)
+    measured = clean + np.random.default_rng(1).normal(0.0, first.noise_um, clean.size)
+    again = diagnose(voltage, measured, fs)
+    assert again.cause == "creep", again.why
+    assert "not ruled out" not in again.why

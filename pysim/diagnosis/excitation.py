@@ -32,9 +32,14 @@ import math
 import numpy as np
 
 from pysim.diagnosis.errors import DiagnosisError
+from pysim.diagnosis.folds import CREEP_HOLD_S
 from pysim.identification.data import checked_sample_rate
 
+__all__ = ["separating_excitation", "samples_for_holds"]
+
 _FREQUENCY_CAUSES = {"delay", "rate_dependence", "rate_dependent_hysteresis", "slew_limit"}
+#: Levels of the steps part, as shares of the range (each held a sixth of the part).
+_STEP_LEVELS = (0.85, 0.25, 0.95, 0.1, 0.6, 0.05)
 
 
 def _ramp(a, b, n):
@@ -79,16 +84,7 @@ def separating_excitation(causes, voltage_range_V, sample_rate_hz: float, n_samp
     if n_samples < 2000:
         raise DiagnosisError(f"an excitation needs at least 2000 samples, got {n_samples}")
     span, mid = hi - lo, 0.5 * (lo + hi)
-    parts = [("slow full-range cycle: identifies the hysteresis; compared with the last one it shows drift",
-              1.0, "cycle")]
-    if causes & _FREQUENCY_CAUSES:
-        parts.append(("sines at several frequencies and two amplitudes: a delay's phase grows with frequency, a "
-                      "lag's saturates; a low-pass before the hysteresis reshapes the loops; a slew limit bites "
-                      "only on large fast ones", 2.0, "sines"))
-    if "creep" in causes or "slew_limit" in causes or "drift" in causes or len(causes & _FREQUENCY_CAUSES) < 2:
-        parts.append(("steps held long: creep keeps moving during a hold, dynamics and delays settle, a slew "
-                      "limit turns a step into a ramp", 2.0, "steps"))
-    parts.append(("slow full-range cycle: the same as the first; a gap between them is drift", 1.0, "cycle"))
+    parts = _parts(causes)
     weights = np.array([w for _, w, _ in parts])
     lengths = np.floor(weights / weights.sum() * n_samples).astype(int)
     lengths[-1] += n_samples - lengths.sum()
@@ -110,6 +106,45 @@ def separating_excitation(causes, voltage_range_V, sample_rate_hz: float, n_samp
         start += n
         level = float(piece[-1])
     return np.concatenate(pieces), plan
+
+
+def _parts(causes: set) -> list:
+    """``(purpose, weight, kind)`` of every part the causes call for, in playing order."""
+    parts = [("slow full-range cycle: identifies the hysteresis; compared with the last one it shows drift",
+              1.0, "cycle")]
+    if causes & _FREQUENCY_CAUSES:
+        parts.append(("sines at several frequencies and two amplitudes: a delay's phase grows with frequency, a "
+                      "lag's saturates; a low-pass before the hysteresis reshapes the loops; a slew limit bites "
+                      "only on large fast ones", 2.0, "sines"))
+    if "creep" in causes or "slew_limit" in causes or "drift" in causes or len(causes & _FREQUENCY_CAUSES) < 2:
+        parts.append(("steps held long: creep keeps moving during a hold, dynamics and delays settle, a slew "
+                      "limit turns a step into a ramp", 2.0, "steps"))
+    parts.append(("slow full-range cycle: the same as the first; a gap between them is drift", 1.0, "cycle"))
+    return parts
+
+
+def samples_for_holds(causes, sample_rate_hz: float, hold_s: float = CREEP_HOLD_S) -> int:
+    """The shortest excitation for ``causes`` whose steps are each held ``hold_s`` seconds or more.
+
+    A creep that the hysteresis fit absorbs on a moving input shows only in
+    a hold long enough for its slow modes to move (``CREEP_HOLD_S``); at a
+    high sample rate the default length of an excitation is too short for
+    that.  The result is at least 2000 (the shortest excitation), and 2000
+    when ``causes`` call for no steps.
+
+    Examples
+    --------
+    >>> samples_for_holds(["creep"], 2000.0), samples_for_holds(["creep"], 100.0)
+    (6012, 2000)
+    """
+    sample_rate_hz = checked_sample_rate(sample_rate_hz, "sample rate", DiagnosisError)
+    parts = _parts(set(causes))
+    share = sum(w for _, w, kind in parts if kind == "steps") / sum(w for _, w, _ in parts)
+    if share == 0:
+        return 2000
+    hold = math.ceil(float(hold_s) * sample_rate_hz)
+    # the steps part is floor(share * n) samples long and holds each of its levels a sixth of it
+    return max(2000, math.ceil((len(_STEP_LEVELS) * hold + len(_STEP_LEVELS)) / share))
 
 
 def _sines(n, fs, lo, span, mid, level):
@@ -135,10 +170,11 @@ def _sines(n, fs, lo, span, mid, level):
 
 def _steps(n, fs, lo, span, level, taus):
     """Steps to alternating high and low levels, each held long."""
-    levels = lo + span * np.array([0.85, 0.25, 0.95, 0.1, 0.6, 0.05])
+    levels = lo + span * np.array(_STEP_LEVELS)
     hold = n // len(levels)
     if len(taus):
-        hold = int(min(hold, max(3 * max(taus) * fs, hold // 2)))
+        # short enough for more steps when the fitted creep is fast, never shorter than creep needs to show
+        hold = int(min(hold, max(3 * max(taus) * fs, hold // 2, math.ceil(CREEP_HOLD_S * fs))))
     out = [np.full(hold, x) for x in levels]
     piece = np.concatenate(out)
     return np.concatenate((piece, np.full(max(n - piece.size, 0), levels[-1])))

@@ -23,7 +23,8 @@ from pysim.diagnosis.validation import RANGE_TOLERANCE_FRACTION, inside_range
 
 __all__ = ["N_FOLDS", "STEP_SHARE", "STEP_RISE_SAMPLES", "HOLD_SHARE", "SETTLE_MIN_SAMPLES",
            "SETTLE_FRACTION", "DEFAULT_TRAIN_FRACTION", "WIDER_RANGE_SHARE", "Split", "input_period",
-           "split_record", "range_beyond_first", "make_folds", "character_split", "step_windows"]
+           "split_record", "range_beyond_first", "make_folds", "character_split", "step_windows",
+           "CREEP_HOLD_S", "holds_after_a_step"]
 
 
 #: Contiguous blocks of the blocked cross-validation (each held out once).
@@ -33,6 +34,10 @@ N_FOLDS = 5
 STEP_SHARE = 0.05
 STEP_RISE_SAMPLES = 3
 HOLD_SHARE = 0.01
+#: A hold after a step this long (s) shows creep plainly: its slow modes keep moving while the
+#: input rests, which no rate-independent model can follow.  A record without one can hide creep
+#: that the hysteresis fit absorbs on a moving input.
+CREEP_HOLD_S = 0.25
 #: Samples at the start left out of fitting and scoring the extensions: their output
 #: stages start at rest, the actuator may not have been (the larger of the two).
 SETTLE_MIN_SAMPLES = 20
@@ -304,6 +309,22 @@ def step_windows(voltage_V, window: int) -> list:
             stop = int(k) + window
             windows.append((first, stop))
     return windows
+
+
+def holds_after_a_step(voltage_V, sample_rate_hz: float, hold_s: float = CREEP_HOLD_S) -> bool:
+    """Whether a step of the input goes into a hold of at least ``hold_s`` seconds.
+
+    A step and a hold are those of :func:`step_windows` (a move of
+    ``STEP_SHARE`` of the span or more, then a rest within ``HOLD_SHARE``).
+
+    Examples
+    --------
+    >>> v = np.repeat([0.0, 10.0, 2.0], [1000, 1000, 100])
+    >>> holds_after_a_step(v, 1000.0, 0.25), holds_after_a_step(v, 1000.0, 2.0)
+    (True, False)
+    """
+    window = max(int(math.ceil(float(hold_s) * float(sample_rate_hz))), 1)
+    return bool(step_windows(voltage_V, window))
 
 
 def record_folds(voltage_V):

@@ -17,6 +17,8 @@ from pysim.cli.outputs import check_output_file
 
 
 def register(subparsers) -> None:
+    from pysim.diagnosis.folds import CREEP_HOLD_S
+
     parser = subparsers.add_parser(
         "excite", help="write a voltage CSV that separates causes a record cannot tell apart",
         description="Write a voltage record within the actuator's range (slow full-range cycles, sines at several "
@@ -28,7 +30,8 @@ def register(subparsers) -> None:
     parser.add_argument("--range", nargs=2, type=float, metavar=("LOW_V", "HIGH_V"),
                         help="the actuator's voltage range (default: the record's)")
     parser.add_argument("--samples", type=int, metavar="N", help="length of the excitation (default: the "
-                        "record's, at least 6000; 20000 without a record)")
+                        "record's, at least 6000; 20000 without a record; longer where needed to hold every step "
+                        f"{CREEP_HOLD_S:g} s)")
     parser.add_argument("--validate", metavar="OTHER", help="second record for the diagnosis (as in diagnose)")
     parser.add_argument("--json", action="store_true", help="print the plan as JSON")
     add_data_options(parser)
@@ -39,7 +42,7 @@ def run(args) -> int:
     from pysim.core.fileio import atomic_write_text
     from pysim.diagnosis.candidates import EFFECTS
     from pysim.diagnosis.diagnose import diagnose
-    from pysim.diagnosis.excitation import separating_excitation
+    from pysim.diagnosis.excitation import samples_for_holds, separating_excitation
 
     out = check_output_file(args.out, "voltage record")
     causes = None
@@ -58,7 +61,7 @@ def run(args) -> int:
         data = load_data(args)
         rate = data.sample_rate_hz
         lo, hi = (float(data.voltage_V.min()), float(data.voltage_V.max())) if args.range is None else args.range
-        n = args.samples or max(data.voltage_V.size, 6000)
+        n = max(data.voltage_V.size, 6000)
         parameters = {}
         if causes is None:
             other = load_data(args, args.validate) if args.validate else None
@@ -78,8 +81,10 @@ def run(args) -> int:
             raise UserError("without a data file give --range LOW_V HIGH_V, --sample-rate HZ and --causes")
         lo, hi = args.range
         rate = args.sample_rate
-        n = args.samples or 20000
+        n = 20000
         parameters = {}
+    # the default length also holds every step long enough for creep to show
+    n = args.samples or max(n, samples_for_holds(causes, rate))
     voltage, plan = separating_excitation(causes, (lo, hi), rate, n, candidates=parameters)
     body = "".join(f"{k / rate!r},{float(x)!r}\n" for k, x in enumerate(voltage))
     atomic_write_text(out, "time_s,voltage_V\n" + body)
