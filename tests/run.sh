@@ -63,6 +63,8 @@ EOF
 
 echo "== test suite against the installed package"
 cd "$WORK/user"
-PIEZO_MPI_TEST_INSTALLED=1 PIEZO_MPI_REPO="$REPO" \
+# one BLAS thread per worker: the workers already use every core, and BLAS threads beside them
+# would only wait on each other
+PIEZO_MPI_TEST_INSTALLED=1 PIEZO_MPI_REPO="$REPO" OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 \
     "$VENV/bin/python" -m pytest -q -p no:cacheprovider -c "$REPO/pyproject.toml" --rootdir "$REPO" \
     -n "${PIEZO_MPI_TEST_WORKERS:-auto}" --dist loadfile "$REPO/tests"

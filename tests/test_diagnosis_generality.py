@@ -1213,6 +1213,35 @@ def test_a_disturbance_outside_the_catalogue_is_unexplained(plant):
     assert "outside the catalogue" in d.why
 
 
+@pytest.mark.parametrize("disturbance_sigma", [0.0, 4.0])
+def test_holds_that_show_no_motion_tell_a_shape_outside_the_class_from_an_effect(disturbance_sigma):
+    """Truth: a Bouc-Wen actuator (rate independent, outside the MPI class; outside-class seed 97),
+    no effect; a staircase first, band-limited noise second.  The first record's MPI model misses the
+    second by 161 σ² that no candidate lowers, which was `unexplained`.  In the staircase's holds a
+    rate-independent output stands still, and so does the residual: nothing is named.  The same
+    records with a disturbance outside the catalogue (a 37.3 Hz sine of 4 σ, which moves in the holds
+    too) stay `unexplained`: the rule answers what the holds show, not which plant class it is."""
+    import outside_class_records
+
+    pair = outside_class_records.make_outside_pair(97)
+    assert pair.plant == "bouc_wen" and pair.effect == "none" and pair.train.input_kind == "staircase"
+    fs = pair.train.sample_rate_hz
+
+    def measured(record):
+        t = np.arange(record.voltage_V.size) / fs
+        return record.displacement_um + disturbance_sigma * pair.noise_um * np.sin(2 * np.pi * 37.3 * t)
+
+    d = diagnose(pair.train.voltage_V, measured(pair.train), fs,
+                 validate=(pair.validation.voltage_V, measured(pair.validation), fs))
+    if disturbance_sigma == 0.0:
+        assert d.cause == "none" and d.causes == () and d.extended.model is d.baseline.model, d.why
+        assert "does not move within" in d.why and "holds of the record fitted" in d.why
+        assert "Without the holds the verdict would be unexplained" in d.why
+    else:
+        assert d.cause == "unexplained", d.why
+        assert "does not move within" not in d.why
+
+
 @pytest.mark.parametrize("cause", ["slew_limit", "rate_dependent_hysteresis"])
 def test_input_stages_are_recognised(plant, cause):
     if cause == "slew_limit":

@@ -24,7 +24,7 @@ from pysim.diagnosis.validation import RANGE_TOLERANCE_FRACTION, inside_range
 __all__ = ["N_FOLDS", "STEP_SHARE", "STEP_RISE_SAMPLES", "HOLD_SHARE", "SETTLE_MIN_SAMPLES",
            "SETTLE_FRACTION", "DEFAULT_TRAIN_FRACTION", "WIDER_RANGE_SHARE", "Split", "input_period",
            "split_record", "range_beyond_first", "make_folds", "character_split", "step_windows",
-           "CREEP_HOLD_S", "holds_after_a_step"]
+           "CREEP_HOLD_S", "holds_after_a_step", "hold_runs"]
 
 
 #: Contiguous blocks of the blocked cross-validation (each held out once).
@@ -325,6 +325,43 @@ def holds_after_a_step(voltage_V, sample_rate_hz: float, hold_s: float = CREEP_H
     """
     window = max(int(math.ceil(float(hold_s) * float(sample_rate_hz))), 1)
     return bool(step_windows(voltage_V, window))
+
+
+def hold_runs(voltage_V, min_samples: int = 10) -> list:
+    """Every hold after a step, whole: ``(first, stop)`` sample ranges.
+
+    A step is a move of at least ``STEP_SHARE`` of the input's span within
+    ``STEP_RISE_SAMPLES`` samples; its hold starts at the first sample at the
+    new level and lasts while the input stays within ``HOLD_SHARE`` of its
+    span of that sample.  With the input linear between samples, a
+    rate-independent actuator's output is constant from ``first`` on, so
+    whatever the displacement does inside a hold is an effect of time.
+    Holds shorter than ``min_samples`` are left out.
+
+    Examples
+    --------
+    >>> v = np.repeat([0.0, 10.0, 2.0, 2.05, 7.0], [30, 40, 20, 20, 5])
+    >>> hold_runs(v, 10)
+    [(30, 70), (70, 110)]
+    """
+    v = np.asarray(voltage_V, dtype=float).ravel()
+    span = float(np.ptp(v)) if v.size else 0.0
+    if not span > 0:
+        return []
+    before = np.concatenate((np.full(STEP_RISE_SAMPLES, v[0]), v[:-STEP_RISE_SAMPLES]))
+    moved = np.abs(v - before) >= STEP_SHARE * span
+    # the first sample at the new level: the input does not move on by more than HOLD_SHARE next
+    arrived = np.zeros(v.size, dtype=bool)
+    arrived[:-1] = moved[:-1] & (np.abs(v[1:] - v[:-1]) <= HOLD_SHARE * span)
+    runs, stop = [], 0
+    for first in np.flatnonzero(arrived).tolist():
+        if first < stop:
+            continue
+        away = np.flatnonzero(np.abs(v[first:] - v[first]) > HOLD_SHARE * span)
+        stop = first + (int(away[0]) if away.size else v.size - first)
+        if stop - first >= min_samples:
+            runs.append((first, stop))
+    return runs
 
 
 def record_folds(voltage_V):

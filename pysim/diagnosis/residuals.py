@@ -264,6 +264,51 @@ def dominant_frequency(signal, sample_rate_hz: float) -> float:
     return float((k + shift) * sample_rate_hz / x.size)
 
 
+def motion_within_holds(residual_um, runs, noise_um: float) -> tuple:
+    """How much the residual moves inside holds of the input, beyond its noise (σ²).
+
+    Inside a hold (:func:`pysim.diagnosis.folds.hold_runs`) a rate-independent
+    actuator's output, and a rate-independent model's prediction, stay
+    constant: the residual's spread about its mean in each hold is noise,
+    whatever shape error the model makes.  Creep, a lag, a delay or a slew
+    limit keep it moving after the step, and a disturbance at any time.
+
+    Parameters
+    ----------
+    residual_um : array_like
+    runs : list of (first, stop)
+    noise_um : float
+        The noise σ of the record.
+
+    Returns
+    -------
+    (excess_sigma2, degrees_of_freedom)
+        The mean square about each hold's mean, per degree of freedom, over
+        σ², minus one; and the degrees of freedom (samples less one per hold).
+
+    Examples
+    --------
+    >>> r = np.random.default_rng(0).normal(0.0, 1.0, 2000)
+    >>> excess, dof = motion_within_holds(r, [(0, 1000), (1000, 2000)], 1.0)
+    >>> abs(excess) < 0.15, dof
+    (True, 1998)
+    >>> settling = 3.0 * np.exp(-np.arange(1000) / 50.0)           # 3 σ after each step, τ = 50 samples
+    >>> excess, _ = motion_within_holds(r + np.tile(settling, 2), [(0, 1000), (1000, 2000)], 1.0)
+    >>> round(excess, 1)
+    0.2
+    """
+    r = np.asarray(residual_um, dtype=float)
+    spread, dof = 0.0, 0
+    for first, stop in runs:
+        piece = r[first:stop]
+        if piece.size > 1:
+            spread += float(np.sum((piece - piece.mean()) ** 2))
+            dof += piece.size - 1
+    if dof == 0 or not noise_um > 0:
+        return 0.0, dof
+    return spread / dof / noise_um**2 - 1.0, dof
+
+
 def residual_statistics(residual_um, voltage_V, sample_rate_hz: float, noise_um: float) -> dict:
     """The statistics of :mod:`pysim.diagnosis.diagnose`'s evidence, for one stretch of record.
 
