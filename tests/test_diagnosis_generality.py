@@ -1213,6 +1213,34 @@ def test_a_disturbance_outside_the_catalogue_is_unexplained(plant):
     assert "outside the catalogue" in d.why
 
 
+def test_holds_and_the_motion_in_them_are_measured_as_defined():
+    """hold_runs: every hold after a step, from the first sample at the new level to the last within
+    1 % of the span; none on a ramp, a constant or too short a record.  motion_within_holds: the
+    spread about each hold's mean in σ² above the noise -- for white noise plus a settling of known
+    shape, the settling's own spread (computed here from its definition), within the noise of the
+    estimate; no measure without a positive σ."""
+    from pysim.diagnosis.folds import hold_runs
+    from pysim.diagnosis.residuals import motion_within_holds
+
+    levels = np.array([0.0, 80.0, 20.0, 100.0, 50.0, 10.0])
+    v = np.repeat(levels, 400)
+    runs = hold_runs(v, 10)
+    assert runs == [(400 * k, 400 * (k + 1)) for k in range(1, 6)]
+    assert hold_runs(np.linspace(0, 100, 2000), 10) == [] and hold_runs(np.full(100, 3.0)) == []
+    assert hold_runs([0.0, 1.0]) == []
+    rng = np.random.default_rng(3)
+    sigma = 0.01
+    settling = 3 * sigma * np.exp(-np.arange(400) / 40.0)
+    expected = np.sum((settling - settling.mean()) ** 2) / 399 / sigma**2
+    residual = rng.normal(0.0, sigma, v.size) + np.tile(settling, 6)
+    excess, dof = motion_within_holds(residual, runs, sigma)
+    assert dof == 5 * 399
+    assert excess == pytest.approx(expected, abs=4 * math.sqrt(2 / dof))
+    still, _ = motion_within_holds(rng.normal(0.0, sigma, v.size), runs, sigma)
+    assert abs(still) < 4 * math.sqrt(2 / dof)
+    assert math.isnan(motion_within_holds(residual, runs, 0.0)[0])
+
+
 @pytest.mark.parametrize("disturbance_sigma", [0.0, 4.0])
 def test_holds_that_show_no_motion_tell_a_shape_outside_the_class_from_an_effect(disturbance_sigma):
     """Truth: a Bouc-Wen actuator (rate independent, outside the MPI class; outside-class seed 97),

@@ -950,7 +950,7 @@ def _holds_show_no_motion(records) -> str:
         runs = hold_runs(voltage, MIN_HOLD_SAMPLES)
         if len(runs) >= MIN_HOLDS:
             excess, dof = motion_within_holds(residual, runs, noise_um)
-            if dof >= MIN_HOLD_DOF:
+            if dof >= MIN_HOLD_DOF and math.isfinite(excess):
                 found.append((name, len(runs), dof, excess))
     if not found or any(excess >= NOISE_FRACTION for *_, excess in found):
         return ""

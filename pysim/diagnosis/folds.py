@@ -346,7 +346,7 @@ def hold_runs(voltage_V, min_samples: int = 10) -> list:
     """
     v = np.asarray(voltage_V, dtype=float).ravel()
     span = float(np.ptp(v)) if v.size else 0.0
-    if not span > 0:
+    if not span > 0 or v.size <= STEP_RISE_SAMPLES:
         return []
     before = np.concatenate((np.full(STEP_RISE_SAMPLES, v[0]), v[:-STEP_RISE_SAMPLES]))
     moved = np.abs(v - before) >= STEP_SHARE * span

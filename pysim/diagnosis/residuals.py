@@ -17,6 +17,8 @@ All functions take plain arrays (µm, V, s) and return plain numbers or arrays.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import scipy.signal
 
@@ -284,7 +286,8 @@ def motion_within_holds(residual_um, runs, noise_um: float) -> tuple:
     -------
     (excess_sigma2, degrees_of_freedom)
         The mean square about each hold's mean, per degree of freedom, over
-        σ², minus one; and the degrees of freedom (samples less one per hold).
+        σ², minus one (NaN without a positive σ or a degree of freedom: no
+        measure); and the degrees of freedom (samples less one per hold).
 
     Examples
     --------
@@ -305,7 +308,7 @@ def motion_within_holds(residual_um, runs, noise_um: float) -> tuple:
             spread += float(np.sum((piece - piece.mean()) ** 2))
             dof += piece.size - 1
     if dof == 0 or not noise_um > 0:
-        return 0.0, dof
+        return math.nan, dof
     return spread / dof / noise_um**2 - 1.0, dof
 
 
