@@ -275,6 +275,13 @@ def settle_samples(n_samples: int) -> int:
     return int(max(SETTLE_MIN_SAMPLES, SETTLE_FRACTION * n_samples))
 
 
+def _stepped(v, span: float) -> np.ndarray:
+    """Per sample: the input has moved at least ``STEP_SHARE`` of ``span`` within the last
+    ``STEP_RISE_SAMPLES`` samples (the start of the record taken as held before it)."""
+    before = v[np.maximum(np.arange(v.size) - STEP_RISE_SAMPLES, 0)]
+    return np.abs(v - before) >= STEP_SHARE * span
+
+
 def step_windows(voltage_V, window: int) -> list:
     """The responses to steps into holds: ``(first, stop)`` sample ranges.
 
@@ -300,8 +307,7 @@ def step_windows(voltage_V, window: int) -> list:
     ahead_min = scipy.ndimage.minimum_filter1d(v, window, origin=-(window // 2))
     holds = (ahead_max - ahead_min) <= HOLD_SHARE * span
     holds[v.size - window + 1:] = False
-    before = np.concatenate((np.full(STEP_RISE_SAMPLES, v[0]), v[:-STEP_RISE_SAMPLES]))
-    starts = np.flatnonzero(holds & (np.abs(v - before) >= STEP_SHARE * span))
+    starts = np.flatnonzero(holds & _stepped(v, span))
     windows, stop = [], 0
     for k in starts:
         first = max(int(k) - STEP_RISE_SAMPLES, 0)
@@ -348,8 +354,7 @@ def hold_runs(voltage_V, min_samples: int = 10) -> list:
     span = float(np.ptp(v)) if v.size else 0.0
     if not span > 0 or v.size <= STEP_RISE_SAMPLES:
         return []
-    before = np.concatenate((np.full(STEP_RISE_SAMPLES, v[0]), v[:-STEP_RISE_SAMPLES]))
-    moved = np.abs(v - before) >= STEP_SHARE * span
+    moved = _stepped(v, span)
     # the first sample at the new level: the input does not move on by more than HOLD_SHARE next
     arrived = np.zeros(v.size, dtype=bool)
     arrived[:-1] = moved[:-1] & (np.abs(v[1:] - v[:-1]) <= HOLD_SHARE * span)
