@@ -1270,6 +1270,40 @@ def test_holds_that_show_no_motion_tell_a_shape_outside_the_class_from_an_effect
         assert "does not move within" not in d.why
 
 
+@pytest.mark.parametrize("creep_sigma", [0.0, 40.0])
+def test_a_cause_whose_model_moves_in_holds_where_the_actuator_stands_still_is_ruled_out(creep_sigma):
+    """Truth: a Bouc-Wen actuator (rate independent, outside the MPI class; outside-class seed 25),
+    no effect; band-limited noise first, a staircase second.  The creep model absorbs part of the
+    shape error on the first record and was named; on the staircase its prediction settles after
+    every step while the actuator's output stands still, so the holds rule it out and nothing is
+    named.  The same records with real creep (a slow mode of the input, 0.3 s, defined here, of
+    ``creep_sigma`` noise σ per volt-span) move in the holds too: the rule does not fire, and creep
+    is named."""
+    import outside_class_records
+    from scipy import signal
+
+    pair = outside_class_records.make_outside_pair(25)
+    assert pair.plant == "bouc_wen" and pair.effect == "none" and pair.validation.input_kind == "staircase"
+    fs = pair.train.sample_rate_hz
+
+    def measured(record):
+        v = record.voltage_V
+        share = (v - v.min()) / np.ptp(v)
+        pole = math.exp(-1.0 / (0.3 * fs))                   # a 0.3 s mode, at rest at the first sample
+        slow = signal.lfilter([1 - pole], [1, -pole], share, zi=[share[0] * pole])[0]
+        return record.displacement_um + creep_sigma * pair.noise_um * slow
+
+    d = diagnose(pair.train.voltage_V, measured(pair.train), fs,
+                 validate=(pair.validation.voltage_V, measured(pair.validation), fs))
+    if creep_sigma == 0.0:
+        assert d.cause == "none" and d.causes == () and d.extended.model is d.baseline.model, d.why
+        assert "model moves within the holds of the second record" in d.why, d.why
+        assert "Without the holds the verdict would be" in d.why
+    else:
+        assert "creep" in d.causes, d.why
+        assert "moves within the holds" not in d.why and "does not move within" not in d.why
+
+
 @pytest.mark.parametrize("cause", ["slew_limit", "rate_dependent_hysteresis"])
 def test_input_stages_are_recognised(plant, cause):
     if cause == "slew_limit":
