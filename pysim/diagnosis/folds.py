@@ -320,8 +320,9 @@ def step_windows(voltage_V, window: int) -> list:
 def holds_after_a_step(voltage_V, sample_rate_hz: float, hold_s: float = CREEP_HOLD_S) -> bool:
     """Whether a step of the input goes into a hold of at least ``hold_s`` seconds.
 
-    A step and a hold are those of :func:`step_windows` (a move of
-    ``STEP_SHARE`` of the span or more, then a rest within ``HOLD_SHARE``).
+    A step and a hold are those of :func:`hold_runs` (a move of ``STEP_SHARE``
+    of the span or more, then a rest within ``HOLD_SHARE`` of the first sample
+    at the new level), the holds the diagnosis measures motion in.
 
     Examples
     --------
@@ -329,8 +330,7 @@ def holds_after_a_step(voltage_V, sample_rate_hz: float, hold_s: float = CREEP_H
     >>> holds_after_a_step(v, 1000.0, 0.25), holds_after_a_step(v, 1000.0, 2.0)
     (True, False)
     """
-    window = max(int(math.ceil(float(hold_s) * float(sample_rate_hz))), 1)
-    return bool(step_windows(voltage_V, window))
+    return bool(hold_runs(voltage_V, max(int(math.ceil(float(hold_s) * float(sample_rate_hz))), 1)))
 
 
 def hold_runs(voltage_V, min_samples: int = 10) -> list:
