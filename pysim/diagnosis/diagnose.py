@@ -842,16 +842,19 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
             preferred = preferred_by_holds(voters, verdict["cause"],
                                            [c for c in candidates if c not in ("drift", verdict["cause"])], prediction)
             if preferred is not None:
-                winner, motions = preferred
+                winners, motions = preferred
                 was_named = verdict["cause"]
                 held_sentence = (
                     f"in the holds of {' and '.join(h.name for h in voters if h.excess_sigma2 >= NOISE_FRACTION)}, "
                     f"where every model's hysteresis part stands still and the motion is the effect alone, "
-                    f"{winner}'s model leaves {motions[winner]:.3g} σ² of it, {was_named}'s {motions[was_named]:.3g} σ² and "
-                    f"the plain fit's {motions['plain']:.3g} σ²: the holds name {winner}")
-                verdict = dict(verdict, cause=winner, causes=(winner,), best=winner)
+                    + ", ".join(f"{c}'s model leaves {motions[c]:.3g} σ²" for c in winners)
+                    + f", {was_named}'s {motions[was_named]:.3g} σ² and the plain fit's {motions['plain']:.3g} σ²: "
+                    f"the holds name {' or '.join(winners)}"
+                    + (f" (within {NOISE_FRACTION:g} σ² of each other, which the holds do not tell apart)"
+                       if len(winners) > 1 else ""))
+                verdict = dict(verdict, cause=winners[0], causes=winners, best=winners[0])
                 if validation is not None:
-                    validation.update(cause=winner, causes=[winner], verdict_by="holds",
+                    validation.update(cause=winners[0], causes=list(winners), verdict_by="holds",
                                       holds_motion_sigma2={c: float(m) for c, m in motions.items()})
         if still_in_holds:
             verdict = {**verdict, "cause": "none", "causes": (), "best": None, "explained_share": 0.0, "text": ""}
