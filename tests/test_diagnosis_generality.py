@@ -1304,26 +1304,6 @@ def test_a_cause_whose_model_moves_in_holds_where_the_actuator_stands_still_is_r
         assert "moves within the holds" not in d.why and "does not move within" not in d.why
 
 
-def test_holds_that_move_name_the_cause_whose_model_follows_them():
-    """Truth: a Bouc-Wen actuator (outside the MPI class; outside-class seed 101) behind a lag; a
-    staircase first, random triangles second.  Over the whole record the shape error mixes with the
-    lag, and an input low-pass (rate-dependent hysteresis) lowered the cross-validated error the
-    most.  Inside the staircase's holds the hysteresis part of every model stands still, so what
-    moves there is the lag alone: the lag's model follows it to the noise, the input low-pass's does
-    not, and the holds name the lag."""
-    import outside_class_records
-
-    pair = outside_class_records.make_outside_pair(101)
-    assert pair.plant == "bouc_wen" and pair.effect == "lag" and pair.train.input_kind == "staircase"
-    fs = pair.train.sample_rate_hz
-    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
-                 validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
-    assert d.cause == "rate_dependence" and d.causes == ("rate_dependence",), d.why
-    assert "the holds name rate_dependence" in d.why
-    motions = d.validation["holds_motion_sigma2"]
-    assert motions["rate_dependence"] < 0.25 < motions["rate_dependent_hysteresis"] < motions["plain"]
-
-
 @pytest.mark.parametrize("cause", ["slew_limit", "rate_dependent_hysteresis"])
 def test_input_stages_are_recognised(plant, cause):
     if cause == "slew_limit":

@@ -96,7 +96,7 @@ from pysim.diagnosis.excitation import separating_excitation
 from pysim.diagnosis.folds import (CREEP_HOLD_S, DEFAULT_TRAIN_FRACTION, Split, WIDER_RANGE_SHARE,
                                    holds_after_a_step, record_folds, settle_samples, character_split,
                                    make_folds, range_beyond_first, split_record)
-from pysim.diagnosis.holds import contradicted_by_holds, preferred_by_holds, still_sentence, voting_holds
+from pysim.diagnosis.holds import contradicted_by_holds, still_holds, still_sentence
 from pysim.diagnosis.path_memory import path_memory
 from pysim.diagnosis.residuals import (NOISE_FREE_FRACTION, VALIDATED_NOISE_FRACTION, models_noise_sigma,
                                       record_noise_sigma, residual_statistics)
@@ -800,12 +800,11 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         # in them (outside-class seeds 97 and 113: Bouc-Wen actuators without an effect, a staircase
         # first, `unexplained` on band-limited noise; seeds 1 and 25: the same with the staircase
         # second, rate-dependent hysteresis and creep named, whose models move in its holds)
-        voters = voting_holds(
+        held = still_holds(
             [(source or "the record fitted", v, y, baseline.prediction_um, noise)]
             + ([] if validation is None or baseline.validation is None else
                [(validate_source or "the second record", v2, y2, baseline.validation["prediction_um"],
                  validation["noise_um"])]))
-        held = voters if all(h.excess_sigma2 < NOISE_FRACTION for h in voters) else []
 
         def prediction(c, index):
             ev = candidates[c]
@@ -834,28 +833,6 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 still_in_holds = f"{held_sentence}; and {still_sentence(held)}"
         elif held and verdict["cause"] == "unexplained":
             still_in_holds = still_sentence(held)
-        elif voters and not held and verdict["cause"] in EFFECTS and verdict["cause"] != "drift":
-            # the holds move: there the hysteresis part of every model is constant, so the motion is the
-            # effect alone, free of the shape error (outside-class seeds 29 and 101: Bouc-Wen lags named
-            # creep and an input low-pass, whose models leave 52 and 1.3 σ² of the holds' motion, the
-            # lag's 3.4 and 0.02)
-            preferred = preferred_by_holds(voters, verdict["cause"],
-                                           [c for c in candidates if c not in ("drift", verdict["cause"])], prediction)
-            if preferred is not None:
-                winners, motions = preferred
-                was_named = verdict["cause"]
-                held_sentence = (
-                    f"in the holds of {' and '.join(h.name for h in voters if h.excess_sigma2 >= NOISE_FRACTION)}, "
-                    f"where every model's hysteresis part stands still and the motion is the effect alone, "
-                    + ", ".join(f"{c}'s model leaves {motions[c]:.3g} σ²" for c in winners)
-                    + f", {was_named}'s {motions[was_named]:.3g} σ² and the plain fit's {motions['plain']:.3g} σ²: "
-                    f"the holds name {' or '.join(winners)}"
-                    + (f" (within {NOISE_FRACTION:g} σ² of each other, which the holds do not tell apart)"
-                       if len(winners) > 1 else ""))
-                verdict = dict(verdict, cause=winners[0], causes=winners, best=winners[0])
-                if validation is not None:
-                    validation.update(cause=winners[0], causes=list(winners), verdict_by="holds",
-                                      holds_motion_sigma2={c: float(m) for c, m in motions.items()})
         if still_in_holds:
             verdict = {**verdict, "cause": "none", "causes": (), "best": None, "explained_share": 0.0, "text": ""}
         if validation is not None and (still_in_holds or held_sentence):
