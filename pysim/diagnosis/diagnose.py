@@ -96,7 +96,7 @@ from pysim.diagnosis.excitation import separating_excitation
 from pysim.diagnosis.folds import (CREEP_HOLD_S, DEFAULT_TRAIN_FRACTION, Split, WIDER_RANGE_SHARE,
                                    holds_after_a_step, record_folds, settle_samples, character_split,
                                    make_folds, range_beyond_first, split_record)
-from pysim.diagnosis.holds import contradicted_by_holds, still_holds, still_sentence
+from pysim.diagnosis.holds import contradicted_by_holds, contradicted_sentence, still_holds, still_sentence
 from pysim.diagnosis.path_memory import path_memory
 from pysim.diagnosis.residuals import (NOISE_FREE_FRACTION, VALIDATED_NOISE_FRACTION, models_noise_sigma,
                                       record_noise_sigma, residual_statistics)
@@ -812,16 +812,11 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 return ev.prediction_um
             return None if ev.validation is None else ev.validation["prediction_um"]
 
+        # (nothing is contradicted where no record holds still: `held` is then empty)
         contradicted = (contradicted_by_holds(held, verdict["causes"], prediction)
-                        if held and verdict["cause"] in EFFECTS else {})
+                        if verdict["cause"] in EFFECTS else {})
         if contradicted:
-            held_sentence = (
-                " and ".join(f"{c}'s model moves within the holds of {name} ({excess:+.2g} σ² beyond the noise, "
-                             f"the plain fit's residual {plain:+.2g} σ²)"
-                             for c, (name, excess, plain) in contradicted.items())
-                + ", where the actuator stands still: "
-                + ("it draws" if len(contradicted) == 1 else "they draw")
-                + " dynamics the record does not show")
+            held_sentence = contradicted_sentence(contradicted)
             kept = tuple(c for c in verdict["causes"] if c not in contradicted)
             if kept:
                 verdict = dict(verdict, cause=kept[0], causes=kept, best=kept[0])

@@ -24,7 +24,7 @@ from pysim.diagnosis.residuals import motion_within_holds
 from pysim.diagnosis.rules import NOISE_FRACTION
 
 __all__ = ["MIN_HOLDS", "MIN_HOLD_SAMPLES", "MIN_HOLD_DOF", "HeldRecord", "still_holds", "still_sentence",
-           "contradicted_by_holds"]
+           "contradicted_by_holds", "contradicted_sentence"]
 
 #: A record whose holds can show an actuator rate independent: at least MIN_HOLDS holds after
 #: steps of MIN_HOLD_SAMPLES samples or more, MIN_HOLD_DOF degrees of freedom in all (the noise of
@@ -153,3 +153,13 @@ def contradicted_by_holds(held, causes, predictions) -> dict:
                 out[cause] = (h.name, excess, h.excess_sigma2)
                 break
     return out
+
+
+def contradicted_sentence(contradicted: dict) -> str:
+    """Why the causes of ``contradicted`` (:func:`contradicted_by_holds`) are ruled out."""
+    return (" and ".join(f"{c}'s model moves within the holds of {name} ({excess:+.2g} σ² beyond the noise, "
+                         f"the plain fit's residual {plain:+.2g} σ²)"
+                         for c, (name, excess, plain) in contradicted.items())
+            + ", where the actuator stands still: "
+            + ("it draws" if len(contradicted) == 1 else "they draw")
+            + " dynamics the record does not show")
