@@ -634,18 +634,17 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     except IdentificationError as exc:
         raise DiagnosisError(f"{where}{exc}") from exc
     rate_independent = richer if richer.mse_um2 < baseline.mse_um2 else baseline
-    creep_score = None
-    if validate is not None:
-        train_range = (float(v.min()), float(v.max()))
+    train_range = (float(v.min()), float(v.max()))
 
-        def creep_score(option):
-            # two structures of one cause: the second record is held-out data too (the score is kept:
-            # the second record's table scores each model once)
-            if option.validation is None:
-                option.validation = score_on_record(option.fit, v2, y2, T, train_range, train_voltage_V=v)
-            return option.mse_um2 * option.validation["mse_um2"]
+    def scored_on_both_records(option):
+        # two structures of one cause: the second record is held-out data too (the score is kept:
+        # the second record's table scores each model once)
+        if option.validation is None:
+            option.validation = score_on_record(option.fit, v2, y2, T, train_range, train_voltage_V=v)
+        return option.mse_um2 * option.validation["mse_um2"]
 
-    candidates = candidates_on_either_base(fitter, run, baseline, richer, EFFECTS, creep_score)
+    candidates = candidates_on_either_base(fitter, run, baseline, richer, EFFECTS,
+                                           None if validate is None else scored_on_both_records)
 
     shaped_on_second = []
     if validate is not None:
@@ -833,6 +832,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         contradicted = (contradicted_by_holds(held, verdict["causes"], prediction)
                         if verdict["cause"] in EFFECTS else {})
         if contradicted:
+            delivered_ruled_out = verdict["cause"] in contradicted
             held_sentence = contradicted_sentence(contradicted)
             kept = tuple(c for c in verdict["causes"] if c not in contradicted)
             if kept:
@@ -841,6 +841,10 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 held_sentence = f"{out}: {held_sentence}"
                 if validation is not None:
                     validation.update(cause=kept[0], causes=list(kept))
+                    if len(kept) > 1 and delivered_ruled_out:
+                        # the member delivered is ruled out: the rest are weighed by the second record
+                        # as any set is, not taken in their order
+                        verdict, delivery_remark = delivered_by_second_record(verdict)
             else:
                 still_in_holds = f"{held_sentence}; and {still_sentence(held)}"
         elif held and verdict["cause"] == "unexplained":
