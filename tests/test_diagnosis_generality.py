@@ -1336,23 +1336,27 @@ def test_holds_that_move_add_the_cause_whose_model_follows_them_and_keep_the_del
     assert third_record_rms(d.extended.model) < 0.5 * third_record_rms(d.baseline.model)
 
 
-def test_a_second_record_that_alone_shows_no_effect_is_no_effect_where_the_first_records_models_fail():
-    """Truth: a Preisach actuator (minor loops that are not congruent, outside the MPI class;
-    outside-class seed 96), no effect; a sine sweep first, band-limited noise second.  The first
-    record shows no effect out of sample; its MPI model does not carry to the noise's minor loops
-    and leaves the second record far above its noise, which no candidate explains (`unexplained`
-    before).  Diagnosed on its own, the second record shows no effect either, so the gap is the
-    hysteresis part, and nothing is named."""
+@pytest.mark.parametrize("seed", [96, 9])
+def test_a_second_record_that_alone_shows_no_effect_is_no_effect_where_the_first_records_models_fail(seed):
+    """Truth: actuators outside the MPI class, no effect.  Seed 96: a Preisach actuator (minor
+    loops that are not congruent), a sine sweep first, band-limited noise second; seed 9: a
+    Bouc-Wen actuator (loops that overshoot after a reversal), a sine sweep, then triangles.  The
+    first record shows no effect out of sample; its MPI model does not carry to the second record's
+    paths and leaves it far above its noise, which no candidate explains (`unexplained` before).
+    Diagnosed on its own, 96's second record shows no effect either; 9's takes the overshoot on its
+    constant-rate triangles for creep or a lag, which, fitted there, the sine sweep does not confirm.
+    Either way the gap is the hysteresis part, and nothing is named."""
     import outside_class_records
 
-    pair = outside_class_records.make_outside_pair(96)
-    assert pair.plant == "preisach" and pair.effect == "none"
+    pair = outside_class_records.make_outside_pair(seed)
+    assert pair.effect == "none" and pair.plant == {96: "preisach", 9: "bouc_wen"}[seed]
     fs = pair.train.sample_rate_hz
     d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
                  validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
     assert d.cause == "none" and d.causes == () and d.extended.model is d.baseline.model, d.why
     assert d.cross_validation_cause == "none"
-    assert d.validation["verdict_by"] == "each record alone" and "names nothing either" in d.why, d.why
+    assert d.validation["verdict_by"] == "each record alone", d.why
+    assert ("names nothing either" if seed == 96 else "nothing is confirmed") in d.why, d.why
     assert "Without the second record on its own the verdict would be unexplained" in d.why, d.why
     # the gap it describes is real: the first record's plain fit misses the second record by far more
     # than its noise

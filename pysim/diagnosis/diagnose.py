@@ -79,7 +79,10 @@ Procedure (``diagnose``):
    and only its models' prediction of the second record is left unexplained,
    the second record is diagnosed on its own: when it names nothing either,
    the gap is the first record's hysteresis part on an input it never showed,
-   and nothing is named (:func:`_second_record_shows_none`).
+   and nothing is named (:func:`_second_record_shows_none`); when it names a
+   cause, the records' roles are swapped (fitted on the second, scored on the
+   first), and the cause is named only when that confirms it, nothing when it
+   confirms nothing.
    **Holds** of the input (:mod:`pysim.diagnosis.holds`) also weigh the
    verdict: a rate-independent actuator stands still in them, so they turn an
    ``unexplained`` verdict into ``none``, rule out a named cause whose model
@@ -897,9 +900,22 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         # record diagnosed on its own tells them apart: an effect shows there too (outside-class
         # seeds 8, 24, 32, 40 and 96: Preisach actuators, 9: a Bouc-Wen one, no effect; each record
         # alone names nothing, the first record's models leave the second at 16-570 σ²)
-        each_alone = _second_record_shows_none(v2, y2, rate2, validate_source, n_operators=n_operators,
-                                               model=model, operator=operator, train_fraction=train_fraction,
-                                               repair_artefacts=repair_artefacts)
+        each_alone, alone = _second_record_shows_none(v2, y2, rate2, validate_source, n_operators=n_operators,
+                                                      model=model, operator=operator, train_fraction=train_fraction,
+                                                      repair_artefacts=repair_artefacts)
+        if not each_alone and alone is not None and alone.cause in EFFECTS:
+            # the second record alone names a cause the first record does not show: fitted on the second
+            # record and scored on the first, a real effect is confirmed there; a shape error of the
+            # second record's taken for an effect (a Bouc-Wen overshoot after reversals read as a lag
+            # or creep) is not
+            first, second = source or "the first record", validate_source or "the second record"
+            turned = in_turn(f"{first} shows no effect out of sample, its models leave {second} unexplained, and "
+                             f"{second} on its own names {', '.join(alone.causes)}")
+            if turned is not None and turned.cause in EFFECTS and set(turned.causes) & set(alone.causes):
+                return reported(turned)
+            if turned is not None and turned.cause == "none":
+                each_alone = (f"{second}, diagnosed on its own, names {', '.join(alone.causes)}, but fitted there and "
+                              f"scored on {first} nothing is confirmed")
         if each_alone:
             first = source or "the record fitted"
             each_alone = (
@@ -1040,18 +1056,19 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
 
 
 def _second_record_shows_none(v2, y2, sample_rate_hz, validate_source, **options) -> str:
-    """The sentence that the second record, diagnosed on its own, shows no effect; '' when it
-    names a cause, is left unexplained or cannot be diagnosed alone."""
+    """(sentence, diagnosis): the sentence that the second record, diagnosed on its own, shows no
+    effect ('' when it names a cause, is left unexplained or cannot be diagnosed alone), and that
+    diagnosis (None when there is none)."""
     name = validate_source or "the second record"
     try:
         alone = diagnose(v2, y2, sample_rate_hz, source=name, **options)
     except DiagnosisError:
-        return ""
+        return "", None
     if alone.cause != "none" or alone.noise_free:
-        return ""
+        return "", alone
     return (f"{name}, diagnosed on its own (its own rate-independent fit, every cause fitted and cross-validated "
             f"there), names nothing either (its own plain fit leaves {alone.baseline.rms_pct:.3g} % of range RMS "
-            "out of sample)")
+            "out of sample)"), alone
 
 
 def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -> str:
