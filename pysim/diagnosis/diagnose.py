@@ -108,8 +108,8 @@ from pysim.diagnosis.excitation import separating_excitation
 from pysim.diagnosis.folds import (CREEP_HOLD_S, DEFAULT_TRAIN_FRACTION, Split, WIDER_RANGE_SHARE,
                                    holds_after_a_step, record_folds, settle_samples, character_split,
                                    make_folds, range_beyond_first, split_record)
-from pysim.diagnosis.holds import (contradicted_by_holds, contradicted_sentence, preferred_by_holds, still_sentence,
-                                   voting_holds)
+from pysim.diagnosis.holds import (contradicted_by_holds, contradicted_sentence, preferred_by_holds, still_holds,
+                                   still_sentence, voting_holds)
 from pysim.diagnosis.path_memory import path_memory
 from pysim.diagnosis.residuals import (NOISE_FREE_FRACTION, VALIDATED_NOISE_FRACTION, models_noise_sigma,
                                       record_noise_sigma, residual_statistics)
@@ -822,8 +822,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
             + ([] if validation is None or baseline.validation is None else
                [(validate_source or "the second record", v2, y2, baseline.validation["prediction_um"],
                  validation["noise_um"])]))
-        # the holds of every voting record stand still (the same records as still_holds gives)
-        held = voters if all(h.excess_sigma2 < NOISE_FRACTION for h in voters) else []
+        held = still_holds(voters)
 
         def prediction(c, index):
             ev = candidates[c]
@@ -866,7 +865,9 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
             if preferred is not None:
                 winners, motions = preferred
                 kept = verdict["causes"]
-                causes_now = tuple(winners) + tuple(c for c in kept if c not in winners)
+                # the member the second record chose to deliver stays first; the others follow the holds
+                lead = kept[:1] if delivery_remark else ()
+                causes_now = tuple(dict.fromkeys(lead + tuple(winners) + tuple(kept)))
                 held_sentence = (
                     f"in the holds of {' and '.join(h.name for h in voters if h.excess_sigma2 >= NOISE_FRACTION)}, "
                     "where every model's hysteresis part stands still and the motion is the effect alone, "
@@ -877,14 +878,9 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                 if validation is not None:
                     validation.update(cause=causes_now[0], causes=list(causes_now), verdict_by="holds",
                                       holds_motion_sigma2={c: float(m) for c, m in motions.items()})
-                    # the model delivered stays the one the second record chose: the member chosen
-                    # before, unless another member of the new set predicts the second record better
-                    if delivery_remark:
-                        was = kept[0]
-                        verdict = dict(verdict, cause=was, best=was,
-                                       causes=(was,) + tuple(c for c in causes_now if c != was))
-                        validation.update(cause=was, causes=list(verdict["causes"]))
-                    else:
+                    if not delivery_remark:
+                        # no member was chosen yet: the one of the new set whose model predicts the
+                        # second record best, as for any set
                         verdict, delivery_remark = delivered_by_second_record(verdict)
         if still_in_holds:
             verdict = {**verdict, "cause": "none", "causes": (), "best": None, "explained_share": 0.0, "text": ""}
@@ -898,8 +894,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         # record's hysteresis part on an input it never showed (a hysteresis outside the MPI class:
         # minor loops that are not congruent, loops that overshoot after a reversal).  The second
         # record diagnosed on its own tells them apart: an effect shows there too (outside-class
-        # seeds 8, 24, 32, 40 and 96: Preisach actuators, 9: a Bouc-Wen one, no effect; each record
-        # alone names nothing, the first record's models leave the second at 16-570 σ²)
+        # seed 96: a Preisach actuator, no effect; each record alone names nothing, the first
+        # record's models leave the second at 90.6 σ²)
         each_alone, alone = _second_record_shows_none(v2, y2, rate2, validate_source, n_operators=n_operators,
                                                       model=model, operator=operator, train_fraction=train_fraction,
                                                       repair_artefacts=repair_artefacts)
@@ -1055,7 +1051,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                               steps=cv_verdict.get("steps"), shape=shape, noise_free=noise_free))
 
 
-def _second_record_shows_none(v2, y2, sample_rate_hz, validate_source, **options) -> str:
+def _second_record_shows_none(v2, y2, sample_rate_hz, validate_source, **options) -> tuple:
     """(sentence, diagnosis): the sentence that the second record, diagnosed on its own, shows no
     effect ('' when it names a cause, is left unexplained or cannot be diagnosed alone), and that
     diagnosis (None when there is none)."""

@@ -93,8 +93,8 @@ def voting_holds(records) -> list:
     return found
 
 
-def still_holds(records) -> list:
-    """The records whose holds vote (:func:`voting_holds`), when every one shows the residual
+def still_holds(voters) -> list:
+    """The voting records ``voters`` (:func:`voting_holds`), when every one shows the residual
     standing still; else [].
 
     Returns
@@ -108,16 +108,15 @@ def still_holds(records) -> list:
     >>> v = np.repeat(rng.uniform(0.0, 100.0, 12), 200)          # 12 steps, each held 200 samples
     >>> shape_error = 0.01 * (v - 50.0) ** 2 / 50.0              # rate independent: constant in a hold
     >>> y = v + shape_error + rng.normal(0.0, 0.05, v.size)
-    >>> [(h.name, len(h.runs)) for h in still_holds([("staircase", v, y, v, 0.05)])]
+    >>> [(h.name, len(h.runs)) for h in still_holds(voting_holds([("staircase", v, y, v, 0.05)]))]
     [('staircase', 11)]
     >>> lagging = np.convolve(v, np.full(20, 0.05))[:v.size]        # a 20-sample moving average
-    >>> still_holds([("staircase", v, lagging + rng.normal(0.0, 0.05, v.size), v, 0.05)])
+    >>> still_holds(voting_holds([("staircase", v, lagging + rng.normal(0.0, 0.05, v.size), v, 0.05)]))
     []
     """
-    found = voting_holds(records)
-    if any(h.excess_sigma2 >= NOISE_FRACTION for h in found):
+    if any(h.excess_sigma2 >= NOISE_FRACTION for h in voters):
         return []
-    return found
+    return list(voters)
 
 
 def still_sentence(held) -> str:
@@ -140,7 +139,7 @@ def contradicted_by_holds(held, causes, predictions) -> dict:
         The causes named.
     predictions : callable
         ``predictions(cause, index)``: that cause's model's prediction (µm) of the record at
-        ``index`` among those given to :func:`still_holds`, or None when it has none there.
+        ``index`` among those given to :func:`voting_holds`, or None when it has none there.
 
     Returns
     -------
@@ -155,7 +154,7 @@ def contradicted_by_holds(held, causes, predictions) -> dict:
     >>> rng = np.random.default_rng(2)
     >>> v = np.repeat(rng.uniform(0.0, 100.0, 12), 200)
     >>> y = v + rng.normal(0.0, 0.05, v.size)
-    >>> held = still_holds([("staircase", v, y, v, 0.05)])
+    >>> held = still_holds(voting_holds([("staircase", v, y, v, 0.05)]))
     >>> creeping = v + 0.3 * (1.0 - np.exp(-(np.arange(v.size) % 200) / 40.0))   # settles in every hold
     >>> models = {"creep": creeping, "delay": v}
     >>> sorted(contradicted_by_holds(held, ["creep", "delay"], lambda c, index: models[c]))
