@@ -1,0 +1,417 @@
+"""A general rate-independent model fitted on two records together: the arbiter
+between a loop shape outside the MPI class and an effect.
+
+When the MPI model fitted on one record leaves a second record unexplained,
+the gap may be an effect, or the MPI model's loop shape on an input the first
+record never showed (a Preisach actuator's minor loops are not congruent, so no
+MPI model carries from one input to another).  One record cannot tell them
+apart; two records of different inputs can, fitted *together* by a model that
+holds every rate-independent hysteresis of the Preisach class: a
+rate-independent actuator is fitted to the noise on both at once, a rate
+effect is not (a lag widens the fast record's loops and not the slow one's).
+
+The model is the discrete Preisach model written with play operators: every
+Preisach operator is ``∫ ψ(r, F_r[v]) dr`` with ``F_r`` the play operator of
+threshold ``r``; here ``N_THRESHOLDS`` one-sided play operators (the first is
+the input itself), each through its own piecewise-linear output function
+(``N_LEVELS + 2`` cubic B-splines over the range its output can take).  Every
+weight enters linearly, so it is fitted by least squares (a small ridge
+holds the weights of output levels a record never reaches at zero) on both
+records at once, the second record with its own sensor offset and gain.
+Only samples where every operator's output is fixed by the input are used:
+the state the actuator was in when a record began is never guessed
+(:func:`pysim.identification.identify.operator_bounds`); the thresholds
+reach as far as every record determines within its first
+``1 - KNOWN_SHARE``.
+
+An effect of the catalogue is then tried on the same model, fitted on both
+records together with its shape parameter searched: ``rate_dependence``
+(a first-order lag ``1/(τ s + 1)`` after the hysteresis), ``delay`` (``d >= 0``)
+and ``creep`` (first-order modes of the input, time constants from three sample
+periods to a ninth of the shorter record, two per decade).  Only output-side
+stages are tried: an input stage changes every operator's path and is left
+to the catalogue's own fits.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.optimize
+import scipy.signal
+
+from pysim.diagnosis.residuals import record_noise_sigma
+from pysim.diagnosis.rules import DECISIVE_SHARE, NOISE_FRACTION, TIE_FRACTION
+from pysim.identification.identify import operator_bounds
+
+__all__ = ["N_THRESHOLDS", "N_LEVELS", "KNOWN_SHARE", "JointFit", "preisach_columns", "fit_both_records",
+           "effects_on_both_records", "verdict_on_both_records"]
+
+#: Play operators of the general model (the first is the input itself).
+N_THRESHOLDS = 16
+#: Knots of each operator's output function (cubic B-splines).
+N_LEVELS = 12
+#: Share of every record, at its end, whose samples the thresholds must leave usable.
+KNOWN_SHARE = 0.6
+#: Ridge on the normalised normal equations: weights of output levels a record never reaches stay at 0.
+RIDGE = 1e-7
+#: The second record's sensor gain against the first's is searched within these bounds.
+GAIN_BOUNDS = (0.5, 2.0)
+#: Usable samples of each record on which an effect's shape parameter is searched.
+SEARCH_ROWS = 8000
+_PROBE_THRESHOLDS = 48
+
+
+@dataclass
+class JointFit:
+    """The general rate-independent model (with an effect, or none) fitted on both records.
+
+    Attributes
+    ----------
+    effect : str
+        ``"none"`` or the catalogue's cause tried.
+    parameter : float
+        The effect's shape parameter (τ in s for ``rate_dependence``, the delay in s for
+        ``delay``); NaN otherwise.
+    mse_sigma2 : tuple of float
+        Each record's mean-square error over its usable samples, in its own noise variance.
+    noise_um : tuple of float
+        Each record's noise σ, µm (from first differences of the residual).
+    samples : tuple of int
+        Each record's usable samples (every operator fixed by the input).
+    second_gain, second_offset_um : float
+        The second record's sensor gain and offset against the first's.
+    """
+    effect: str
+    parameter: float
+    mse_sigma2: tuple
+    noise_um: tuple
+    samples: tuple
+    second_gain: float = 1.0
+    second_offset_um: float = 0.0
+    residuals_um: tuple = field(default=(), repr=False)
+
+    @property
+    def excess_sigma2(self) -> float:
+        """Mean-square error above the noise over both records, in noise variances (samples pooled)."""
+        n = np.asarray(self.samples, dtype=float)
+        return float(np.sum(n * (np.asarray(self.mse_sigma2) - 1.0)) / np.sum(n))
+
+
+def _first_fixed_sample(voltage_V, thresholds_V) -> np.ndarray:
+    """For each operator, the first sample from which its output no longer depends on the state
+    before the record (the record's length when it never gets there)."""
+    low, high = operator_bounds(voltage_V, thresholds_V, "osp", 0.0)
+    fixed = np.isclose(low, high, rtol=0.0, atol=1e-9 * (1.0 + np.abs(low)))
+    first = np.argmax(fixed, axis=0)
+    return np.where(fixed.any(axis=0), first, len(voltage_V))
+
+
+def general_thresholds(records_V) -> np.ndarray:
+    """``N_THRESHOLDS`` thresholds (V) from 0 to the largest every record fixes within its first
+    ``1 - KNOWN_SHARE`` of samples.
+
+    Examples
+    --------
+    >>> v = np.r_[np.linspace(0, 100, 200), np.linspace(100, 0, 200), np.linspace(0, 100, 200)]
+    >>> r = general_thresholds([v])
+    >>> r.size, float(r[0]), bool(0 < r[-1] <= 100)
+    (16, 0.0, True)
+    """
+    span = max(float(np.ptp(v)) for v in records_V)
+    probe = np.linspace(0.0, span, _PROBE_THRESHOLDS + 1)[1:]
+    reach = span
+    for v in records_V:
+        first = _first_fixed_sample(v, probe)
+        fixed_early = probe[first <= (1.0 - KNOWN_SHARE) * len(v)]
+        reach = min(reach, float(fixed_early.max()) if fixed_early.size else 0.0)
+    if reach <= 0.0:
+        reach = probe[0]
+    return np.linspace(0.0, reach, N_THRESHOLDS)
+
+
+def _cubic_splines(x, lo: float, hi: float) -> np.ndarray:
+    """``(N, N_LEVELS + 2)`` uniform cubic B-splines over ``[lo, hi]``: they sum to one there and
+    reproduce every cubic polynomial, so a smooth output function is approached far closer than
+    by hat functions (error of order ``h⁴``), and a play operator's linear weight exactly."""
+    h = (hi - lo) / (N_LEVELS - 1)
+    centres = lo + h * np.arange(-1, N_LEVELS + 1)
+    t = np.abs(x[:, None] - centres) / h
+    return np.where(t < 1.0, (4.0 - 6.0 * t**2 + 3.0 * t**3) / 6.0,
+                    np.where(t < 2.0, (2.0 - t) ** 3 / 6.0, 0.0))
+
+
+def preisach_columns(voltage_V, thresholds_V, range_V) -> tuple:
+    """``(A, first_usable)``: the general model's design matrix on one record (``N_THRESHOLDS``
+    operators × ``N_LEVELS + 2`` cubic B-splines of each one's output) and the first sample from which
+    every operator's output is fixed by the input (rows before it depend on the unknown state).
+
+    Examples
+    --------
+    >>> v = np.r_[np.linspace(0, 10, 50), np.linspace(10, 0, 50)]
+    >>> A, first = preisach_columns(v, [0.0, 2.0], (0.0, 10.0))
+    >>> A.shape, np.allclose(A[:, :N_LEVELS + 2].sum(axis=1), 1.0), int(first)
+    ((100, 28), True, 10)
+    """
+    v = np.asarray(voltage_V, dtype=float)
+    r = np.asarray(thresholds_V, dtype=float)
+    low, high = operator_bounds(v, r, "osp", 0.0)
+    first = _first_fixed_sample(v, r)
+    lo, hi = range_V
+    blocks = []
+    for i, threshold in enumerate(r):
+        blocks.append(_cubic_splines(low[:, i], lo - threshold, hi))
+    return np.hstack(blocks), int(first.max())
+
+
+def _solve(gram, rhs):
+    """Ridge least squares from the normal equations (normalised to a unit diagonal)."""
+    scale = np.sqrt(np.maximum(np.diag(gram), 1e-300))
+    normalised = gram / np.outer(scale, scale) + RIDGE * np.eye(gram.shape[0])
+    return np.linalg.solve(normalised, rhs / scale) / scale
+
+
+def _fit(designs, displacements_um, usable, effect, parameter) -> JointFit:
+    """Fit the weights on both records, the second with its own sensor gain and offset."""
+    A1, A2 = (np.ascontiguousarray(A[rows]) for A, rows in zip(designs, usable))
+    y1, y2 = (y[rows] for y, rows in zip(displacements_um, usable))
+    # the normal equations' parts, computed once: for a fixed gain g of the second record,
+    # [A1 1 0; g A2 0 1] [w; c1; c2] = [y1; y2] is linear in the weights and both offsets
+    G1, G2 = A1.T @ A1, A2.T @ A2
+    s1, s2 = A1.sum(axis=0), A2.sum(axis=0)
+    b1, b2 = A1.T @ y1, A2.T @ y2
+    n1, n2 = float(y1.size), float(y2.size)
+
+    yy = float(y1 @ y1 + y2 @ y2)
+
+    def normal_equations(gain):
+        m = G1.shape[0]
+        gram = np.zeros((m + 2, m + 2))
+        gram[:m, :m] = G1 + gain**2 * G2
+        gram[:m, m], gram[:m, m + 1] = s1, gain * s2
+        gram[m, :m], gram[m + 1, :m] = s1, gain * s2
+        gram[m, m], gram[m + 1, m + 1] = n1, n2
+        return gram, np.r_[b1 + gain * b2, y1.sum(), y2.sum()]
+
+    def squared_error(gain):
+        # from the normal equations alone: |y - B w|² = y'y - 2 w'B'y + w'B'B w
+        gram, rhs = normal_equations(gain)
+        w = _solve(gram, rhs)
+        return yy - 2.0 * w @ rhs + w @ gram @ w
+
+    # the gain profiled out: the weights follow it exactly (alternating the two converges slowly,
+    # as the weights of both records compromise at every pass)
+    gain = float(scipy.optimize.minimize_scalar(squared_error, bounds=GAIN_BOUNDS, method="bounded",
+                                                options={"xatol": 1e-5}).x)
+    weights = _solve(*normal_equations(gain))
+    e1 = y1 - A1 @ weights[:-2] - weights[-2]
+    e2 = y2 - gain * (A2 @ weights[:-2]) - weights[-1]
+    noise = (record_noise_sigma(e1, y1), record_noise_sigma(e2, y2))
+    mse = tuple(float(np.mean(e**2) / s**2) for e, s in zip((e1, e2), noise))
+    # y2 = g (A2 w + c1) + (c2 - g c1): the second record's offset against the first's, scaled
+    return JointFit(effect, parameter, mse, noise, (y1.size, y2.size), gain, float(weights[-1] - gain * weights[-2]),
+                    residuals_um=(e1, e2))
+
+
+def _lagged(A, time_constant_s, period_s):
+    """Every column through ``1/(τ s + 1)`` (held at the first row before the record)."""
+    a = math.exp(-period_s / time_constant_s)
+    columns = np.ascontiguousarray(A.T)          # filtered along contiguous rows: several times faster
+    return scipy.signal.lfilter([1.0 - a], [1.0, -a], columns, axis=1, zi=a * columns[:, :1])[0].T
+
+
+def _delayed(A, delay_s, period_s):
+    """Every column delayed by ``delay_s`` (linear between samples; the first row held before)."""
+    d = max(delay_s / period_s, 0.0)
+    whole, f = int(math.floor(d)), d - math.floor(d)
+
+    def shifted(k):
+        k = min(k, A.shape[0])
+        return np.vstack([np.repeat(A[:1], k, axis=0), A[:A.shape[0] - k]])
+
+    return (1.0 - f) * shifted(whole) + f * shifted(whole + 1)
+
+
+def _creep_modes(voltage_V, period_s, shortest_samples):
+    v = np.asarray(voltage_V, dtype=float) - voltage_V[0]
+    decades = math.log10(max(shortest_samples / 9.0, 6.0) / 3.0)
+    taus = 3.0 * 10.0 ** np.arange(0.0, decades + 1e-9, 0.5)       # in samples
+    return np.column_stack([scipy.signal.lfilter([1.0 - math.exp(-1.0 / t)], [1.0, -math.exp(-1.0 / t)], v)
+                            for t in taus])
+
+
+class _BothRecords:
+    """The two records prepared once: thresholds, designs, usable rows."""
+
+    def __init__(self, v1, y1, period1_s, v2, y2, period2_s):
+        self.v = (np.asarray(v1, dtype=float), np.asarray(v2, dtype=float))
+        self.y = (np.asarray(y1, dtype=float), np.asarray(y2, dtype=float))
+        self.T = (float(period1_s), float(period2_s))
+        self.thresholds_V = general_thresholds(self.v)
+        range_V = (min(float(v.min()) for v in self.v), max(float(v.max()) for v in self.v))
+        built = [preisach_columns(v, self.thresholds_V, range_V) for v in self.v]
+        self.A = tuple(a for a, _ in built)
+        self.usable = tuple(np.arange(first, v.size) for (_, first), v in zip(built, self.v))
+
+    def fit(self, effect="none", parameter=float("nan"), search=False) -> JointFit:
+        if effect == "rate_dependence":
+            designs = [_lagged(A, parameter, T) for A, T in zip(self.A, self.T)]
+        elif effect == "delay":
+            designs = [_delayed(A, parameter, T) for A, T in zip(self.A, self.T)]
+        elif effect == "creep":
+            shortest = min(v.size for v in self.v)
+            designs = [np.hstack([A, _creep_modes(v, T, shortest)]) for A, v, T in zip(self.A, self.v, self.T)]
+        else:
+            designs = list(self.A)
+        # the shape parameter's search weighs every record on at most SEARCH_ROWS usable samples
+        # (every k-th: the whole record's character); the fit found is made on all of them
+        usable = ([rows[::max(1, rows.size // SEARCH_ROWS)] for rows in self.usable] if search else self.usable)
+        return _fit(designs, self.y, usable, effect, parameter)
+
+    def searched(self, effect, low_s, high_s) -> JointFit:
+        """The effect with its shape parameter searched on a log grid, then refined."""
+        grid = np.geomspace(low_s, high_s, 8)
+        fits = [self.fit(effect, p, search=True) for p in grid]
+        k = int(np.argmin([f.excess_sigma2 for f in fits]))
+        lo, hi = math.log(grid[max(k - 1, 0)]), math.log(grid[min(k + 1, grid.size - 1)])
+        found = scipy.optimize.minimize_scalar(lambda x: self.fit(effect, math.exp(x), search=True).excess_sigma2,
+                                               bounds=(lo, hi), method="bounded", options={"xatol": 0.05})
+        return self.fit(effect, math.exp(found.x) if found.fun < fits[k].excess_sigma2 else grid[k])
+
+
+def fit_both_records(v1, y1, period1_s, v2, y2, period2_s) -> JointFit:
+    """The general rate-independent model fitted on both records together.
+
+    Parameters
+    ----------
+    v1, y1, v2, y2 : array_like
+        Voltage (V) and displacement (µm) of the two records.
+    period1_s, period2_s : float
+        Their sample periods, s.
+
+    Returns
+    -------
+    JointFit
+
+    Examples
+    --------
+    A rate-independent actuator outside the MPI class (a smooth density of play
+    operators, each through a quadratic output) is fitted to its noise on two
+    inputs at once:
+
+    >>> rng = np.random.default_rng(1)
+    >>> t = np.arange(4000) / 1000.0
+    >>> v1 = 50 + 50 * np.sin(2 * np.pi * 1.0 * t) * np.exp(-t / 4)
+    >>> v2 = 50 + 45 * np.sin(2 * np.pi * 3.0 * t) * np.sin(2 * np.pi * 0.4 * t)
+    >>> def actuator(v):
+    ...     r = np.arange(0.0, 40.0, 0.5)
+    ...     low, _ = operator_bounds(v, r, "osp", 0.0)
+    ...     return (np.exp(-r / 20) * (0.01 * low + 1e-4 * low**2)).sum(axis=1)
+    >>> fit = fit_both_records(v1, actuator(v1) + rng.normal(0, 0.1, t.size), 1e-3,
+    ...                        v2, actuator(v2) + rng.normal(0, 0.1, t.size), 1e-3)
+    >>> bool(max(fit.mse_sigma2) < 1.0 + NOISE_FRACTION)
+    True
+    """
+    return _BothRecords(v1, y1, period1_s, v2, y2, period2_s).fit()
+
+
+def effects_on_both_records(v1, y1, period1_s, v2, y2, period2_s) -> dict:
+    """The general rate-independent model alone (``"none"``) and with each output-side effect
+    (``rate_dependence``, ``delay``, ``creep``), each fitted on both records together.
+
+    Returns
+    -------
+    dict of str to JointFit
+
+    Examples
+    --------
+    A lag of 2 ms after the same hysteresis is what only the lag brings to the noise:
+
+    >>> rng = np.random.default_rng(2)
+    >>> t = np.arange(4000) / 1000.0
+    >>> v1 = 50 + 50 * np.sin(2 * np.pi * 1.0 * t)
+    >>> v2 = 50 + 45 * np.sin(2 * np.pi * 15.0 * t) * np.sin(2 * np.pi * 0.4 * t)
+    >>> def actuator(v):
+    ...     r = np.arange(0.0, 40.0, 0.5)
+    ...     low, _ = operator_bounds(v, r, "osp", 0.0)
+    ...     h = (np.exp(-r / 20) * (0.01 * low + 1e-4 * low**2)).sum(axis=1)
+    ...     return scipy.signal.lfilter([1 - np.exp(-0.5)], [1, -np.exp(-0.5)], h, zi=[np.exp(-0.5) * h[0]])[0]
+    >>> fits = effects_on_both_records(v1, actuator(v1) + rng.normal(0, 0.02, t.size), 1e-3,
+    ...                                v2, actuator(v2) + rng.normal(0, 0.02, t.size), 1e-3)
+    >>> min(fits, key=lambda c: fits[c].excess_sigma2), abs(fits["rate_dependence"].parameter - 2e-3) < 3e-4
+    ('rate_dependence', True)
+    >>> bool(fits["none"].excess_sigma2 > 10 * fits["rate_dependence"].excess_sigma2)
+    True
+    """
+    both = _BothRecords(v1, y1, period1_s, v2, y2, period2_s)
+    period = max(both.T)
+    shortest = min(v.size * T for v, T in zip(both.v, both.T))
+    return {"none": both.fit(),
+            "rate_dependence": both.searched("rate_dependence", 0.3 * min(both.T), min(300.0 * period, shortest / 20)),
+            "delay": both.searched("delay", 0.1 * min(both.T), 10.0 * period),
+            "creep": both.fit("creep")}
+
+
+def verdict_on_both_records(fits: dict) -> dict:
+    """What the general model says of two records that the MPI diagnosis leaves unexplained.
+
+    - ``"none"`` when the general rate-independent model alone fits *each* record
+      within ``NOISE_FRACTION`` σ² of its noise: the gap was the MPI model's loop shape;
+    - a cause when its effect on the general model removes ``DECISIVE_SHARE`` or more of what
+      the model alone leaves above the noise over both records (and at least 1 σ²), lowering
+      each record's error; causes within ``TIE_FRACTION`` of what the best removes are named
+      with it;
+    - ``None`` otherwise (the verdict stays ``unexplained``).
+
+    Parameters
+    ----------
+    fits : dict of str to JointFit
+        :func:`effects_on_both_records`'s result.
+
+    Returns
+    -------
+    dict
+        ``cause`` (``"none"``, a cause or None), ``causes`` (tuple), ``left_sigma2`` (what each
+        fit leaves above the noise over both records, σ²) and ``sentence`` (the evidence).
+
+    Examples
+    --------
+    >>> def fit(effect, *mse):
+    ...     return JointFit(effect, float("nan"), mse, (0.1, 0.1), (1000, 1000))
+    >>> fits = {"none": fit("none", 9.0, 17.0), "rate_dependence": fit("rate_dependence", 1.1, 1.5),
+    ...         "delay": fit("delay", 1.2, 1.9), "creep": fit("creep", 5.0, 9.0)}
+    >>> verdict_on_both_records(fits)["causes"]
+    ('rate_dependence', 'delay')
+    >>> verdict_on_both_records({c: fit(c, 1.05, 1.1) for c in fits})["cause"]
+    'none'
+    >>> print(verdict_on_both_records({**fits, "none": fit("none", 2.0, 2.2)})["cause"])
+    None
+    """
+    base = fits["none"]
+    left = {c: f.excess_sigma2 for c, f in fits.items()}
+    described = (f"a general rate-independent model (a discrete Preisach model: {N_THRESHOLDS} play operators, "
+                 "each through its own output function) fitted on both records together leaves "
+                 + " and ".join(f"{m:.3g} σ²" for m in base.mse_sigma2) + " of their noise")
+    if max(base.mse_sigma2) <= 1.0 + NOISE_FRACTION:
+        return {"cause": "none", "causes": (), "left_sigma2": left,
+                "sentence": f"{described}: one rate-independent actuator explains both, so what the MPI models "
+                            "leave is their loop shape (outside the MPI class), not an effect"}
+    effects = {c: f for c, f in fits.items() if c != "none"}
+    best = min(effects, key=lambda c: effects[c].excess_sigma2)
+    removed = base.excess_sigma2 - effects[best].excess_sigma2
+    evidence = ", ".join(f"with {c} {f.excess_sigma2:.3g} σ²" for c, f in sorted(effects.items(),
+                                                                                    key=lambda cf: cf[1].excess_sigma2))
+    lowers_each = all(b < a for a, b in zip(base.mse_sigma2, effects[best].mse_sigma2))
+    if removed >= max(DECISIVE_SHARE * base.excess_sigma2, 1.0) and lowers_each:
+        causes = tuple(sorted((c for c in effects if effects[c].excess_sigma2 - effects[best].excess_sigma2
+                               <= TIE_FRACTION * removed), key=lambda c: effects[c].excess_sigma2))
+        return {"cause": best, "causes": causes, "left_sigma2": left,
+                "sentence": f"{described} ({base.excess_sigma2:.3g} σ² above it over both; {evidence}): "
+                            f"{' and '.join(causes)} {'removes' if len(causes) == 1 else 'remove'} "
+                            + ("all" if removed >= 0.995 * base.excess_sigma2 else
+                               f"{100 * removed / base.excess_sigma2:.0f} %")
+                            + " of it on a hysteresis of any rate-independent shape"}
+    return {"cause": None, "causes": (), "left_sigma2": left,
+            "sentence": f"{described} ({base.excess_sigma2:.3g} σ² above it over both; {evidence}): no effect of "
+                        f"the catalogue removes {100 * DECISIVE_SHARE:.0f} % of it"}
