@@ -360,8 +360,8 @@ def verdict_on_both_records(fits: dict) -> dict:
       within ``NOISE_FRACTION`` σ² of its noise: the gap was the MPI model's loop shape;
     - a cause when its effect on the general model removes ``DECISIVE_SHARE`` or more of what
       the model alone leaves above the noise over both records (and at least 1 σ²), lowering
-      each record's error; causes within ``TIE_FRACTION`` of what the best removes are named
-      with it;
+      each record's error; causes within ``TIE_FRACTION`` of what the best leaves above the noise,
+      or within ``NOISE_FRACTION`` σ² of it, are named with it;
     - ``None`` otherwise (the verdict stays ``unexplained``).
 
     Parameters
@@ -380,7 +380,7 @@ def verdict_on_both_records(fits: dict) -> dict:
     >>> def fit(effect, *mse):
     ...     return JointFit(effect, float("nan"), mse, (0.1, 0.1), (1000, 1000))
     >>> fits = {"none": fit("none", 9.0, 17.0), "rate_dependence": fit("rate_dependence", 1.1, 1.5),
-    ...         "delay": fit("delay", 1.2, 1.9), "creep": fit("creep", 5.0, 9.0)}
+    ...         "delay": fit("delay", 1.2, 1.7), "creep": fit("creep", 5.0, 9.0)}
     >>> verdict_on_both_records(fits)["causes"]
     ('rate_dependence', 'delay')
     >>> verdict_on_both_records({c: fit(c, 1.05, 1.1) for c in fits})["cause"]
@@ -404,8 +404,11 @@ def verdict_on_both_records(fits: dict) -> dict:
                                                                                     key=lambda cf: cf[1].excess_sigma2))
     lowers_each = all(b < a for a, b in zip(base.mse_sigma2, effects[best].mse_sigma2))
     if removed >= max(DECISIVE_SHARE * base.excess_sigma2, 1.0) and lowers_each:
-        causes = tuple(sorted((c for c in effects if effects[c].excess_sigma2 - effects[best].excess_sigma2
-                               <= TIE_FRACTION * removed), key=lambda c: effects[c].excess_sigma2))
+        # ties as everywhere in the diagnosis: within TIE_FRACTION of what the best leaves above the
+        # noise, or within the noise margin
+        margin = max(TIE_FRACTION * effects[best].excess_sigma2, NOISE_FRACTION)
+        causes = tuple(sorted((c for c in effects if effects[c].excess_sigma2 - effects[best].excess_sigma2 <= margin),
+                              key=lambda c: effects[c].excess_sigma2))
         return {"cause": best, "causes": causes, "left_sigma2": left,
                 "sentence": f"{described} ({base.excess_sigma2:.3g} σ² above it over both; {evidence}): "
                             f"{' and '.join(causes)} {'removes' if len(causes) == 1 else 'remove'} "
