@@ -13,8 +13,8 @@ effect is not (a lag widens the fast record's loops and not the slow one's).
 The model is the discrete Preisach model written with play operators: every
 Preisach operator is ``∫ ψ(r, F_r[v]) dr`` with ``F_r`` the play operator of
 threshold ``r``; here ``N_THRESHOLDS`` one-sided play operators (the first is
-the input itself), each through its own piecewise-linear output function
-(``N_LEVELS + 2`` cubic B-splines over the range its output can take).  Every
+the input itself), each through its own output function (``N_LEVELS + 2``
+cubic B-splines over the range its output can take).  Every
 weight enters linearly, so it is fitted by least squares (a small ridge
 holds the weights of output levels a record never reaches at zero) on both
 records at once, the second record with its own sensor offset and gain.
@@ -35,7 +35,7 @@ to the catalogue's own fits.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.optimize
@@ -90,7 +90,6 @@ class JointFit:
     samples: tuple
     second_gain: float = 1.0
     second_offset_um: float = 0.0
-    residuals_um: tuple = field(default=(), repr=False)
 
     @property
     def excess_sigma2(self) -> float:
@@ -99,13 +98,13 @@ class JointFit:
         return float(np.sum(n * (np.asarray(self.mse_sigma2) - 1.0)) / np.sum(n))
 
 
-def _first_fixed_sample(voltage_V, thresholds_V) -> np.ndarray:
+def _first_fixed_sample(low, high) -> np.ndarray:
     """For each operator, the first sample from which its output no longer depends on the state
-    before the record (the record's length when it never gets there)."""
-    low, high = operator_bounds(voltage_V, thresholds_V, "osp", 0.0)
+    before the record (the record's length when it never gets there), from its outputs started at
+    the lowest and the highest admissible state (:func:`operator_bounds`)."""
     fixed = np.isclose(low, high, rtol=0.0, atol=1e-9 * (1.0 + np.abs(low)))
     first = np.argmax(fixed, axis=0)
-    return np.where(fixed.any(axis=0), first, len(voltage_V))
+    return np.where(fixed.any(axis=0), first, low.shape[0])
 
 
 def general_thresholds(records_V) -> np.ndarray:
@@ -123,7 +122,7 @@ def general_thresholds(records_V) -> np.ndarray:
     probe = np.linspace(0.0, span, _PROBE_THRESHOLDS + 1)[1:]
     reach = span
     for v in records_V:
-        first = _first_fixed_sample(v, probe)
+        first = _first_fixed_sample(*operator_bounds(v, probe, "osp", 0.0))
         fixed_early = probe[first <= (1.0 - KNOWN_SHARE) * len(v)]
         reach = min(reach, float(fixed_early.max()) if fixed_early.size else 0.0)
     if reach <= 0.0:
@@ -157,7 +156,7 @@ def preisach_columns(voltage_V, thresholds_V, range_V) -> tuple:
     v = np.asarray(voltage_V, dtype=float)
     r = np.asarray(thresholds_V, dtype=float)
     low, high = operator_bounds(v, r, "osp", 0.0)
-    first = _first_fixed_sample(v, r)
+    first = _first_fixed_sample(low, high)
     lo, hi = range_V
     blocks = []
     for i, threshold in enumerate(r):
@@ -210,8 +209,7 @@ def _fit(designs, displacements_um, usable, effect, parameter) -> JointFit:
     noise = (record_noise_sigma(e1, y1), record_noise_sigma(e2, y2))
     mse = tuple(float(np.mean(e**2) / s**2) for e, s in zip((e1, e2), noise))
     # y2 = g (A2 w + c1) + (c2 - g c1): the second record's offset against the first's, scaled
-    return JointFit(effect, parameter, mse, noise, (y1.size, y2.size), gain, float(weights[-1] - gain * weights[-2]),
-                    residuals_um=(e1, e2))
+    return JointFit(effect, parameter, mse, noise, (y1.size, y2.size), gain, float(weights[-1] - gain * weights[-2]))
 
 
 def _lagged(A, time_constant_s, period_s):
