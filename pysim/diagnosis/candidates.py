@@ -196,6 +196,20 @@ def _lsq_sse(A, y) -> float:
     return float(residual @ residual)
 
 
+def creep_time_constants_s(n_samples: int, sample_period_s: float) -> np.ndarray:
+    """Time constants (s) of the creep modes tried on a record of ``n_samples``: from three
+    sample periods to a ninth of the record (at least 30 periods), two per decade.
+
+    Examples
+    --------
+    >>> [round(float(t), 6) for t in creep_time_constants_s(900, 1e-3)]
+    [0.003, 0.009487, 0.03, 0.094868, 0.3]
+    """
+    ratio = max(10.0, n_samples / 9.0)
+    count = int(math.ceil(2.0 * math.log10(ratio))) + 1
+    return 3.0 * sample_period_s * np.geomspace(1.0, ratio, count)
+
+
 def mode_lags(signal, time_constants_s, sample_period_s: float) -> np.ndarray:
     """``(N, m)`` columns ``C_j[x] − x``: how far each creep mode (a unit-gain
     first-order lag, at rest at the first sample) trails the signal ``x``."""
@@ -424,9 +438,7 @@ class CandidateFitter:
                           stages={"delay_samples": delay}, transform=OutputStages(delay_samples=delay))
 
     def creep_time_constants_s(self) -> np.ndarray:
-        ratio = max(10.0, self.v.size / 9.0)
-        count = int(math.ceil(2.0 * math.log10(ratio))) + 1
-        return 3.0 * self.T * np.geomspace(1.0, ratio, count)
+        return creep_time_constants_s(self.v.size, self.T)
 
     def creep(self, base: Family) -> Family:
         taus = self.creep_time_constants_s()
