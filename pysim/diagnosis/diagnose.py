@@ -956,11 +956,12 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         # the noise, a rate effect does not, and the effect that brings it there is the cause
         # (outside-class seeds 8, 24, 32, 40: Preisach actuators without an effect, both records
         # fitted within 0.07 σ² of their noise; seed 4: a 2 ms lag, 12.7 σ² left, 0.02 σ² with the
-        # lag; seed 158: a 1.4-sample delay named a lag, whose model left the second record far above
-        # its noise: on the general model the delay leaves 0.03 σ², the lag 2.1).  A named cause is
-        # put to it only when the general model holds that cause too (not a resonance, a slew limit or
-        # a drift), and it is replaced only by a decisive other effect: never by `none`, as a weak
-        # effect the MPI models name right may hide in the general model's freer loop shape
+        # lag; seed 60: a 2 ms lag named an input low-pass, whose model left the second record far
+        # above its noise: on the general model the lag leaves 0.03 σ², the input low-pass 21).  A
+        # named cause is put to it only when the general model holds that cause too (not a resonance,
+        # a slew limit or a drift), and it is replaced only by a decisive other effect: never by
+        # `none`, as a weak effect the MPI models name right may hide in the general model's freer
+        # loop shape
         said = verdict_on_both_records(effects_on_both_records(v, y, T, v2, y2, T))
         if named_before != "unexplained" and (said["cause"] in (None, "none") or set(named_set) & set(said["causes"])):
             said = dict(said, cause=None)
@@ -985,6 +986,12 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         elif named_before == "unexplained":
             validation.update(general_model_left_sigma2=said["left_sigma2"],
                               note=f"{validation['note']}; {said['sentence']}")
+        else:
+            # the judgement is reported where it keeps the name too
+            validation.update(general_model_left_sigma2=said["left_sigma2"],
+                              note=f"{validation['note']}; {named_before}'s model, fitted on the first record, "
+                                   f"leaves the second {named_left:.3g} σ² above its noise, and {said['sentence']}: "
+                                   "the name stands")
     cause, causes = verdict["cause"], verdict["causes"]
     held = split.heldout
     residual = y - baseline.prediction_um
