@@ -210,6 +210,18 @@ def creep_time_constants_s(n_samples: int, sample_period_s: float) -> np.ndarray
     return 3.0 * sample_period_s * np.geomspace(1.0, ratio, count)
 
 
+def gain_sign(voltage_V, displacement_um) -> float:
+    """+1 or −1: the sign of the record's straight-line slope, the direction in which admissible
+    creep trails the input.
+
+    Examples
+    --------
+    >>> gain_sign([0.0, 1.0, 2.0], [0.0, -0.5, -1.2])
+    -1.0
+    """
+    return 1.0 if float(np.polyfit(voltage_V, displacement_um, 1)[0]) >= 0 else -1.0
+
+
 def mode_lags(signal, time_constants_s, sample_period_s: float) -> np.ndarray:
     """``(N, m)`` columns ``C_j[x] − x``: how far each creep mode (a unit-gain
     first-order lag, at rest at the first sample) trails the signal ``x``."""
@@ -285,8 +297,7 @@ class CandidateFitter:
         except IdentificationError:
             self.richer_result = self.baseline_result
         self.u = self.v - self.baseline_result.model.input_offset_V
-        gain = float(np.polyfit(self.v, self.y, 1)[0])
-        self.gain_sign = 1.0 if gain >= 0 else -1.0
+        self.gain_sign = gain_sign(self.v, self.y)
 
     def operator_outputs_V(self):
         """``(N, m)`` outputs of the richer rate-independent model's operators with a threshold

@@ -49,7 +49,7 @@ import scipy.linalg
 import scipy.optimize
 
 from pysim.core.extended import OutputStages, first_order_section
-from pysim.diagnosis.candidates import creep_time_constants_s, mode_lags
+from pysim.diagnosis.candidates import creep_time_constants_s, gain_sign, mode_lags
 from pysim.diagnosis.input_stages import apply_input_stage
 from pysim.diagnosis.residuals import record_noise_sigma
 from pysim.diagnosis.rules import DECISIVE_SHARE, NOISE_FRACTION, TIE_FRACTION, UNEXPLAINED_LEVEL
@@ -263,19 +263,26 @@ class _BothRecords:
         self.usable = tuple(np.arange(first, v.size) for (_, first), v in zip(built, self.v))
         # creep may only trail the input in the direction of the actuator's gain (the catalogue's
         # admissible creep: non-negative weights on the modes' lag behind the input)
-        slope = np.polyfit(self.v[0], self.y[0], 1)[0]
-        self.gain_sign = 1.0 if slope >= 0 else -1.0
+        self.gain_sign = gain_sign(self.v[0], self.y[0])
         shortest = min(v.size for v in self.v)
         self.creep_time_constants_s = creep_time_constants_s(shortest, max(self.T))
+        self._plain = {}            # the model alone, on the search rows and on all (creep starts from it)
 
     def _rows(self, search):
         # the shape parameter's search weighs every record on at most SEARCH_ROWS usable samples
         # (every k-th: the whole record's character); the fit found is made on all of them
         return ([rows[::max(1, rows.size // SEARCH_ROWS)] for rows in self.usable] if search else self.usable)
 
+    def _on_rows(self, designs, rows, effect, parameter, nonnegative=()) -> JointFit:
+        return _fit([A[k] for A, k in zip(designs, rows)], [y[k] for y, k in zip(self.y, rows)],
+                    effect, parameter, nonnegative)
+
     def fit(self, effect="none", parameter=float("nan"), search=False) -> JointFit:
+        if effect == "none":
+            if search not in self._plain:
+                self._plain[search] = self._on_rows(self.A, self._rows(search), "none", float("nan"))
+            return self._plain[search]
         rows = self._rows(search)
-        nonnegative = ()
         if effect == "rate_dependence":
             designs = [OutputStages([first_order_section(parameter, T)]).apply_to_columns(A)
                        for A, T in zip(self.A, self.T)]
@@ -298,9 +305,8 @@ class _BothRecords:
                                 tuple(k.size for k in kept))
             return _fit(designs, [y[k] for y, k in zip(self.y, kept)], effect, parameter)
         else:
-            designs = list(self.A)
-        return _fit([A[k] for A, k in zip(designs, rows)], [y[k] for y, k in zip(self.y, rows)],
-                    effect, parameter, nonnegative)
+            raise ValueError(f"the general model holds no effect {effect!r}")
+        return self._on_rows(designs, rows, effect, parameter)
 
     def _creep(self, rows, rounds: int = 3) -> JointFit:
         """Creep as the catalogue admits it: non-negative weights on slow modes' lag behind what
@@ -320,8 +326,7 @@ class _BothRecords:
         def with_modes(drives):
             designs = [np.hstack([A, mode_lags(x, taus, T), start])
                        for A, x, T, start in zip(self.A, drives, self.T, starts)]
-            return _fit([D[k] for D, k in zip(designs, rows)], [y[k] for y, k in zip(self.y, rows)],
-                        "creep", float("nan"), nonnegative)
+            return self._on_rows(designs, rows, "creep", float("nan"), nonnegative)
 
         best = with_modes([self.gain_sign * v for v in self.v])
         fit = self.fit("none", search=rows is not self.usable)
@@ -435,10 +440,11 @@ def verdict_on_both_records(fits: dict) -> dict:
       within ``NOISE_FRACTION`` σ² of its noise: the gap was the MPI model's loop shape;
     - a cause when its effect on the general model removes ``DECISIVE_SHARE`` or more of what
       the model alone leaves above the noise over both records (and at least 1 σ², or
-      ``NOISE_FRACTION`` σ² when it brings each record within ``NOISE_FRACTION`` of its noise), lowering
-      each record's error (an input stage, which runs every operator's path again, only when it
-      leaves no record more than ``UNEXPLAINED_LEVEL`` σ² above its noise); causes within ``TIE_FRACTION`` of what the best leaves above the noise, or within
-      ``NOISE_FRACTION`` σ² of it, are named with it;
+      ``NOISE_FRACTION`` σ² when it brings each record within ``NOISE_FRACTION`` of its noise),
+      lowering each record's error (an input stage, which runs every operator's path again, only
+      when it leaves no record more than ``UNEXPLAINED_LEVEL`` σ² above its noise); causes within
+      ``TIE_FRACTION`` of what the best leaves above the noise, or within ``NOISE_FRACTION`` σ² of
+      it, are named with it;
     - ``None`` otherwise (the verdict stays ``unexplained``).
 
     Parameters
