@@ -1847,3 +1847,36 @@ def test_a_named_cause_whose_model_misses_the_second_record_is_judged_by_the_gen
         return float(np.sqrt(np.mean((predicted - pair.test.clean_um) ** 2)))
 
     assert third_rms(d.extended.model) < third_rms(d.baseline.model)
+
+
+def test_a_none_the_plain_fit_cannot_carry_to_the_second_record_is_put_to_the_general_model():
+    """Truth: outside-class seed 34, a Preisach actuator with creep.  The MPI models name nothing (no
+    candidate beats their loop-shape error on the second record), yet their plain fit of the first
+    record leaves the second more than its noise above it: the general model on both records, which
+    holds the Preisach hysteresis, is asked, and only creep brings both records to their noise.
+    Creep is named, and the third record (never given) is predicted better than by the plain fit."""
+    import outside_class_records
+
+    pair = outside_class_records.make_outside_pair(34)
+    assert pair.plant == "preisach" and pair.effect == "creep"
+    fs = pair.train.sample_rate_hz
+    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
+                 validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
+    assert d.causes == ("creep",) and d.validation["verdict_by"] == "general model on both records", d.why
+    assert "nothing was named, but the plain fit of the first record leaves the second" in d.why, d.why
+    assert "Without the general model nothing would be named: no candidate lowers" in d.why, d.why
+    left = d.validation["general_model_left_sigma2"]
+    assert left["creep"] == min(left.values()) and left["creep"] < 0.25 * left["none"], left
+    fit = d.extended.fit
+    assert fit.cause == "creep", d.why
+    # admissible: modes of one sign, none cancelling another
+    weights = np.asarray(fit.parameters["shares" if fit.parameters["driven_by"] == "displacement"
+                                       else "weights_um_per_V"])
+    tiny = 1e-9 * np.max(np.abs(weights))
+    assert np.all(weights >= -tiny) or np.all(weights <= tiny), fit.parameters
+
+    def third_rms(model):
+        predicted = model.simulate(pair.test.voltage_V)
+        return float(np.sqrt(np.mean((predicted - pair.test.clean_um) ** 2)))
+
+    assert third_rms(d.extended.model) < third_rms(d.baseline.model)

@@ -385,10 +385,19 @@ def fit_both_records(v1, y1, period1_s, v2, y2, period2_s) -> JointFit:
     return _BothRecords(v1, y1, period1_s, v2, y2, period2_s).fit()
 
 
-def effects_on_both_records(v1, y1, period1_s, v2, y2, period2_s) -> dict:
+def effects_on_both_records(v1, y1, period1_s, v2, y2, period2_s, *, stop_at_noise: bool = False) -> dict:
     """The general rate-independent model alone (``"none"``) and with each effect it holds
     (``rate_dependence``, ``delay``, ``creep``, ``rate_dependent_hysteresis`` and, when an input
     moves, ``slew_limit``), each fitted on both records together.
+
+    Parameters
+    ----------
+    v1, y1, period1_s, v2, y2, period2_s
+        Each record's voltage (V), displacement (µm) and sample period (s).
+    stop_at_noise : bool
+        Return the model alone when it fits each record within ``NOISE_FRACTION`` σ² of its noise:
+        :func:`verdict_on_both_records` then says ``"none"`` whatever the effects would fit, so
+        they are not fitted (each costs as much as the model alone, several times over).
 
     Returns
     -------
@@ -403,11 +412,13 @@ def effects_on_both_records(v1, y1, period1_s, v2, y2, period2_s) -> dict:
     >>> t = np.arange(4000) / 1000.0
     >>> v1 = 50 + 50 * np.sin(2 * np.pi * 1.0 * t)
     >>> v2 = 50 + 45 * np.sin(2 * np.pi * 15.0 * t) * np.sin(2 * np.pi * 0.4 * t)
-    >>> def actuator(v):
+    >>> def hysteresis(v):
     ...     r = np.arange(0.0, 40.0, 0.5)
     ...     low, _ = operator_bounds(v, r, "osp", 0.0)
-    ...     h = (np.exp(-r / 20) * (0.01 * low + 1e-4 * low**2)).sum(axis=1)
+    ...     return (np.exp(-r / 20) * (0.01 * low + 1e-4 * low**2)).sum(axis=1)
+    >>> def actuator(v):
     ...     lag = ([[-500.0]], [[500.0]], [[1.0]], [[0.0]])        # 1/(τ s + 1), τ = 2 ms
+    ...     h = hysteresis(v)
     ...     return scipy.signal.lsim(lag, h, t, X0=[h[0]])[1]
     >>> fits = effects_on_both_records(v1, actuator(v1) + rng.normal(0, 0.02, t.size), 1e-3,
     ...                                v2, actuator(v2) + rng.normal(0, 0.02, t.size), 1e-3)
@@ -415,13 +426,24 @@ def effects_on_both_records(v1, y1, period1_s, v2, y2, period2_s) -> dict:
     ('rate_dependence', True)
     >>> bool(fits["none"].excess_sigma2 > 10 * fits["rate_dependence"].excess_sigma2)
     True
+
+    Without the lag, and with more noise than the 16 thresholds miss of this hysteresis's 80, the
+    model alone fits both records to their noise, and no effect is fitted:
+
+    >>> sorted(effects_on_both_records(v1, hysteresis(v1) + rng.normal(0, 0.1, t.size), 1e-3,
+    ...                                v2, hysteresis(v2) + rng.normal(0, 0.1, t.size), 1e-3,
+    ...                                stop_at_noise=True))
+    ['none']
     """
     both = _BothRecords(v1, y1, period1_s, v2, y2, period2_s)
+    alone = both.fit()
+    if stop_at_noise and max(alone.mse_sigma2) <= 1.0 + NOISE_FRACTION:
+        return {"none": alone}
     period = max(both.T)
     shortest = min(v.size * T for v, T in zip(both.v, both.T))
     slowest_lag_s = min(300.0 * period, shortest / 20)
     fastest_V_per_s = max(float(np.max(np.abs(np.diff(v)))) / T for v, T in zip(both.v, both.T))
-    fits = {"none": both.fit(),
+    fits = {"none": alone,
             "rate_dependence": both.searched("rate_dependence", 0.05 * min(both.T), slowest_lag_s),
             "delay": both.searched("delay", 0.1 * min(both.T), 10.0 * period),
             "creep": both.fit("creep"),
