@@ -361,6 +361,14 @@ _STEPS_ALONE = ("{first} shows an effect only in its responses to steps, and {se
 #: verdict is put to the general model on both records: an error as large as the noise itself.
 PLAIN_MISS_LEVEL = 1.0
 
+def _left_on_second_record(evaluation, validation) -> float:
+    """What a model fitted on the first record leaves on the second above its noise (σ²); 0 when
+    there is no second record or no score there."""
+    if validation is None or evaluation.validation is None:
+        return 0.0
+    return evaluation.validation["mse_um2"] / validation["noise_um"] ** 2 - 1.0
+
+
 #: Named causes the general model on both records also holds (a first-order lag only), and so may judge.
 GENERAL_MODEL_JUDGES = ("rate_dependence", "delay", "creep", "rate_dependent_hysteresis")
 
@@ -961,12 +969,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     general = ""
     named_before, named_set = verdict["cause"], tuple(verdict["causes"])
     # what the named cause's own model, fitted on the first record, leaves on the second (σ²)
-    named_left = (candidates[named_before].validation["mse_um2"] / validation["noise_um"] ** 2 - 1.0
-                  if validation is not None and named_before in EFFECTS
-                  and candidates[named_before].validation is not None else 0.0)
-    # what the plain fit of the first record leaves on the second (σ²)
-    plain_left = (baseline.validation["mse_um2"] / validation["noise_um"] ** 2 - 1.0
-                  if validation is not None and baseline.validation is not None else 0.0)
+    named_left = _left_on_second_record(candidates[named_before], validation) if named_before in EFFECTS else 0.0
+    plain_left = _left_on_second_record(baseline, validation)
     none_asked = (named_before == "none" and validation is not None and not unidentified and not _swap_reason
                   and plain_left >= PLAIN_MISS_LEVEL and not still_in_holds)
     if none_asked and not turn_tried and not each_alone:
@@ -1090,8 +1094,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         # before `each_alone`: the general model judged the `none` that the records alone gave
         named_how = ("nothing is named" if cause == "none" else
                      f"{', '.join(causes)} {'is' if len(causes) == 1 else 'are'} named")
-        before = (f"nothing would be named: {each_alone.removeprefix('nothing is named: ') or why}" if named_before == "none" else
-                  f"the verdict would be {why}")
+        before = (f"nothing would be named: {each_alone.removeprefix('nothing is named: ') or why}"
+                  if named_before == "none" else f"the verdict would be {why}")
         why = f"{named_how} by the two records together: {general}. Without the general model {before}"
     elif each_alone:
         why = f"{each_alone}. Without the second record on its own the verdict would be {why}"

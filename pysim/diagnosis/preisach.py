@@ -385,6 +385,11 @@ def fit_both_records(v1, y1, period1_s, v2, y2, period2_s) -> JointFit:
     return _BothRecords(v1, y1, period1_s, v2, y2, period2_s).fit()
 
 
+def _within_noise(fit: JointFit) -> bool:
+    """The fit leaves each record within ``NOISE_FRACTION`` σ² of its noise: no effect can be named."""
+    return max(fit.mse_sigma2) <= 1.0 + NOISE_FRACTION
+
+
 def effects_on_both_records(v1, y1, period1_s, v2, y2, period2_s, *, stop_at_noise: bool = False) -> dict:
     """The general rate-independent model alone (``"none"``) and with each effect it holds
     (``rate_dependence``, ``delay``, ``creep``, ``rate_dependent_hysteresis`` and, when an input
@@ -437,7 +442,7 @@ def effects_on_both_records(v1, y1, period1_s, v2, y2, period2_s, *, stop_at_noi
     """
     both = _BothRecords(v1, y1, period1_s, v2, y2, period2_s)
     alone = both.fit()
-    if stop_at_noise and max(alone.mse_sigma2) <= 1.0 + NOISE_FRACTION:
+    if stop_at_noise and _within_noise(alone):
         return {"none": alone}
     period = max(both.T)
     shortest = min(v.size * T for v, T in zip(both.v, both.T))
@@ -504,7 +509,7 @@ def verdict_on_both_records(fits: dict) -> dict:
     described = (f"a general rate-independent model (a discrete Preisach model: {N_THRESHOLDS} play operators, "
                  "each through its own output function) fitted on both records together leaves "
                  + " and ".join(f"{m:.3g} σ²" for m in base.mse_sigma2) + " of their noise")
-    if max(base.mse_sigma2) <= 1.0 + NOISE_FRACTION:
+    if _within_noise(base):
         return {"cause": "none", "causes": (), "left_sigma2": left,
                 "sentence": f"{described}: one rate-independent actuator explains both, so what the MPI models "
                             "leave is their loop shape (outside the MPI class), not an effect"}
