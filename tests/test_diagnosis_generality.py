@@ -1871,3 +1871,42 @@ def test_a_none_the_plain_fit_cannot_carry_to_the_second_record_is_put_to_the_ge
     tiny = 1e-9 * np.max(np.abs(weights))
     assert np.all(weights >= -tiny) or np.all(weights <= tiny), fit.parameters
     assert _third_record_rms(pair, d.extended.model) < _third_record_rms(pair, d.baseline.model)
+
+
+def test_a_named_cause_gives_way_when_one_rate_independent_actuator_fits_both_records():
+    """Truth: outside-class seed 49, a Bouc-Wen actuator without an effect (minor loops that
+    neither close nor wipe out), band-limited noise first, triangles second.  The MPI models name
+    a lag, whose model, fitted on the first record, leaves the second far above its noise; the
+    general model on both records, whose Bouc-Wen operators hold this hysteresis, fits each record
+    to its noise without any effect: nothing is named, and the plain fit is delivered."""
+    import outside_class_records
+
+    pair = outside_class_records.make_outside_pair(49)
+    assert pair.plant == "bouc_wen" and pair.effect == "none"
+    fs = pair.train.sample_rate_hz
+    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
+                 validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
+    assert d.cause == "none" and d.causes == (), d.why
+    assert d.validation["verdict_by"] == "general model on both records", d.why
+    assert "rate_dependence was named, but rate_dependence's model" in d.why, d.why
+    assert "one rate-independent actuator explains both" in d.why, d.why
+    assert d.extended.model is d.baseline.model
+    assert d.validation["general_model_left_sigma2"]["none"] < 0.25
+
+
+def test_a_bouc_wen_actuator_without_an_effect_left_unexplained_by_the_mpi_models_names_nothing():
+    """Truth: outside-class seed 137, a Bouc-Wen actuator without an effect, triangles first, a sine
+    sweep second.  The MPI models leave the first record unexplained (8.3 σ² out of sample, no
+    candidate significant); the general model with its Bouc-Wen operators fits both records to
+    their noise: nothing is named, and the plain fit is delivered."""
+    import outside_class_records
+
+    pair = outside_class_records.make_outside_pair(137)
+    assert pair.plant == "bouc_wen" and pair.effect == "none"
+    fs = pair.train.sample_rate_hz
+    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
+                 validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
+    assert d.cause == "none" and d.causes == (), d.why
+    assert d.validation["verdict_by"] == "general model on both records", d.why
+    assert "Without the general model the verdict would be unexplained" in d.why, d.why
+    assert d.extended.model is d.baseline.model

@@ -6,8 +6,9 @@ import pytest
 import scipy.signal
 
 from independent_records import preisach_relays
+from pysim.diagnosis.bouc_wen import forgotten_from
 from pysim.diagnosis.candidates import creep_time_constants_s
-from pysim.diagnosis.preisach import (N_LEVELS, N_THRESHOLDS, NOISE_FRACTION, effects_on_both_records,
+from pysim.diagnosis.preisach import (HYSTERESIS_COLUMNS, NOISE_FRACTION, effects_on_both_records,
                                       fit_both_records, general_thresholds, preisach_columns,
                                       verdict_on_both_records)
 
@@ -93,7 +94,9 @@ def test_an_unknown_history_is_left_out_not_guessed(inputs):
     fit = fit_both_records(v1, y1, 1 / RATE_HZ, v2, _noisy(_actuator(v2), 6), 1 / RATE_HZ)
     _, first = preisach_columns(v1, general_thresholds([v1, v2]), (LO, HI))
     assert 0 < first <= 0.4 * v1.size
-    assert fit.samples[0] == v1.size - first
+    # left out until every play operator is fixed and the Bouc-Wen operators have forgotten it
+    forgotten = min(forgotten_from(v1, (LO, HI)), int(0.4 * v1.size))
+    assert fit.samples[0] == v1.size - max(first, forgotten)
     assert max(fit.mse_sigma2) < 1.0 + NOISE_FRACTION
 
 
@@ -129,10 +132,10 @@ def test_creep_after_an_unknown_history_is_named_with_admissible_modes(inputs):
                                    v2, _noisy(_actuator(v2, creep=creep), 12), 1 / RATE_HZ)
     said = verdict_on_both_records(fits)
     assert said["cause"] == "creep", said["sentence"]
-    assert fits["none"].excess_sigma2 > 2.0
+    # (2.0 σ² and more before the Bouc-Wen operators, whose slow memory of the path takes part of it)
+    assert fits["none"].excess_sigma2 > 0.5
     assert max(fits["creep"].mse_sigma2) < 1.0 + NOISE_FRACTION
-    hysteresis = N_THRESHOLDS * (N_LEVELS + 2)
-    modes = fits["creep"].weights[hysteresis:hysteresis + creep_time_constants_s(v1.size, 1 / RATE_HZ).size]
+    modes = fits["creep"].weights[HYSTERESIS_COLUMNS:HYSTERESIS_COLUMNS + creep_time_constants_s(v1.size, 1 / RATE_HZ).size]
     assert np.all(modes >= 0.0) and modes.sum() > 0.0
 
 

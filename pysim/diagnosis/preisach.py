@@ -18,7 +18,11 @@ cubic B-splines over the range its output can take).  Every
 weight enters linearly, so it is fitted by least squares (a small ridge
 holds the weights of output levels a record never reaches at zero) on both
 records at once, the second record with its own sensor offset and gain.
-Only samples where every operator's output is fixed by the input are used:
+Beside it, a bank of Bouc-Wen operators (:mod:`pysim.diagnosis.bouc_wen`),
+each with its weight: a Bouc-Wen actuator's minor loops neither close nor
+wipe out older turning points, which no Preisach model holds.
+Only samples where every play operator's output is fixed by the input and
+the bank's state before the record has faded are used:
 the state the actuator was in when a record began is never guessed
 (:func:`pysim.identification.identify.operator_bounds`); the thresholds
 reach as far as every record determines within its first
@@ -49,19 +53,22 @@ import scipy.linalg
 import scipy.optimize
 
 from pysim.core.extended import OutputStages, first_order_section
+from pysim.diagnosis.bouc_wen import N_OPERATORS, bouc_wen_bank, forgotten_from
 from pysim.diagnosis.candidates import creep_time_constants_s, gain_sign, mode_lags
 from pysim.diagnosis.input_stages import apply_input_stage
 from pysim.diagnosis.residuals import record_noise_sigma
 from pysim.diagnosis.rules import DECISIVE_SHARE, NOISE_FRACTION, TIE_FRACTION, UNEXPLAINED_LEVEL
 from pysim.identification.identify import operator_bounds
 
-__all__ = ["N_THRESHOLDS", "N_LEVELS", "KNOWN_SHARE", "JointFit", "preisach_columns", "fit_both_records",
-           "effects_on_both_records", "verdict_on_both_records"]
+__all__ = ["N_THRESHOLDS", "N_LEVELS", "HYSTERESIS_COLUMNS", "KNOWN_SHARE", "JointFit", "preisach_columns",
+           "fit_both_records", "effects_on_both_records", "verdict_on_both_records"]
 
 #: Play operators of the general model (the first is the input itself).
 N_THRESHOLDS = 16
 #: Knots of each operator's output function (cubic B-splines).
 N_LEVELS = 12
+#: Columns of the model alone, before an effect's (the Preisach model's splines, then the Bouc-Wen bank).
+HYSTERESIS_COLUMNS = N_THRESHOLDS * (N_LEVELS + 2) + N_OPERATORS
 #: Share of every record, at its end, whose samples the thresholds must leave usable.
 KNOWN_SHARE = 0.6
 #: Ridge on the normalised normal equations: weights of output levels a record never reaches stay at 0.
@@ -259,14 +266,22 @@ class _BothRecords:
         self.thresholds_V = general_thresholds(self.v)
         self.range_V = (min(float(v.min()) for v in self.v), max(float(v.max()) for v in self.v))
         built = [preisach_columns(v, self.thresholds_V, self.range_V) for v in self.v]
-        self.A = tuple(a for a, _ in built)
-        self.usable = tuple(np.arange(first, v.size) for (_, first), v in zip(built, self.v))
+        self.A = tuple(self._with_bouc_wen(a, v) for (a, _), v in zip(built, self.v))
+        # rows where every play operator is fixed by the input and the Bouc-Wen bank has forgotten
+        # its state before the record, as far as that leaves KNOWN_SHARE of the record
+        self.usable = tuple(np.arange(max(first, min(forgotten_from(v, self.range_V),
+                                                     int((1.0 - KNOWN_SHARE) * v.size))), v.size)
+                            for (_, first), v in zip(built, self.v))
         # creep may only trail the input in the direction of the actuator's gain (the catalogue's
         # admissible creep: non-negative weights on the modes' lag behind the input)
         self.gain_sign = gain_sign(self.v[0], self.y[0])
         shortest = min(v.size for v in self.v)
         self.creep_time_constants_s = creep_time_constants_s(shortest, max(self.T))
         self._plain = {}            # the model alone, on the search rows and on all (creep starts from it)
+
+    def _with_bouc_wen(self, preisach_design, voltage_V, rows=slice(None)) -> np.ndarray:
+        """The Preisach columns (on ``rows``) with the Bouc-Wen bank's outputs beside them."""
+        return np.hstack([preisach_design, bouc_wen_bank(voltage_V, self.range_V)[rows]])
 
     def _rows(self, search):
         # the shape parameter's search weighs every record on at most SEARCH_ROWS usable samples
@@ -295,10 +310,11 @@ class _BothRecords:
             # the operators see the stage's output: their paths (and the rows they fix) change
             designs, kept = [], []
             for v, T, used in zip(self.v, self.T, rows):
-                low, first = _operator_paths(apply_input_stage(INPUT_EFFECTS[effect], parameter, v, T),
-                                             self.thresholds_V)
+                staged = apply_input_stage(INPUT_EFFECTS[effect], parameter, v, T)
+                low, first = _operator_paths(staged, self.thresholds_V)
                 kept.append(used[used >= first])
-                designs.append(_spline_design(low[kept[-1]], self.thresholds_V, self.range_V))
+                designs.append(self._with_bouc_wen(_spline_design(low[kept[-1]], self.thresholds_V, self.range_V),
+                                                   staged, kept[-1]))
             if min(k.size / u.size for k, u in zip(kept, rows)) < KNOWN_SHARE:
                 # a stage so slow that the operators' paths stay unknown on most of a record: not a fit
                 return JointFit(effect, parameter, (math.inf, math.inf), (math.nan, math.nan),
@@ -506,8 +522,9 @@ def verdict_on_both_records(fits: dict) -> dict:
     """
     base = fits["none"]
     left = {c: f.excess_sigma2 for c, f in fits.items()}
-    described = (f"a general rate-independent model (a discrete Preisach model: {N_THRESHOLDS} play operators, "
-                 "each through its own output function) fitted on both records together leaves "
+    described = (f"a general rate-independent model (a discrete Preisach model of {N_THRESHOLDS} play operators, "
+                 f"each through its own output function, and {N_OPERATORS} Bouc-Wen operators) fitted on both "
+                 "records together leaves "
                  + " and ".join(f"{m:.3g} σ²" for m in base.mse_sigma2) + " of their noise")
     if _within_noise(base):
         return {"cause": "none", "causes": (), "left_sigma2": left,
