@@ -1314,13 +1314,8 @@ def test_holds_that_move_add_the_cause_whose_model_follows_them_and_keep_the_del
     it predicts the second record better, and the third record (a sine sweep, never given) far
     better than the plain fit; the lag's model, fitted on the staircase, does not carry the
     hysteresis to the triangles (naming the lag alone delivered the plain fit)."""
-    import outside_class_records
-
-    pair = outside_class_records.make_outside_pair(101)
-    assert pair.plant == "bouc_wen" and pair.effect == "lag" and pair.train.input_kind == "staircase"
-    fs = pair.train.sample_rate_hz
-    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
-                 validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
+    pair, d = _diagnose_outside_pair(101, "bouc_wen", "lag")
+    assert pair.train.input_kind == "staircase"
     assert "rate_dependence" in d.causes and len(d.causes) > 1, d.why
     assert "the holds add rate_dependence to the causes named" in d.why, d.why
     motions = d.validation["holds_motion_sigma2"]
@@ -1330,7 +1325,7 @@ def test_holds_that_move_add_the_cause_whose_model_follows_them_and_keep_the_del
 
     def third_record_rms(model):
         test = pair.test
-        settle = int(0.1 * fs)
+        settle = int(0.1 * pair.train.sample_rate_hz)
         return float(np.sqrt(np.mean((model.simulate(test.voltage_V) - test.clean_um)[settle:] ** 2)))
 
     assert third_record_rms(d.extended.model) < 0.5 * third_record_rms(d.baseline.model)
@@ -1346,13 +1341,7 @@ def test_a_second_record_that_alone_shows_no_effect_is_no_effect_where_the_first
     Diagnosed on its own, 96's second record shows no effect either; 9's takes the overshoot on its
     constant-rate triangles for creep or a lag, which, fitted there, the sine sweep does not confirm.
     Either way the gap is the hysteresis part, and nothing is named."""
-    import outside_class_records
-
-    pair = outside_class_records.make_outside_pair(seed)
-    assert pair.effect == "none" and pair.plant == {96: "preisach", 9: "bouc_wen"}[seed]
-    fs = pair.train.sample_rate_hz
-    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
-                 validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
+    _, d = _diagnose_outside_pair(seed, {96: "preisach", 9: "bouc_wen"}[seed], "none")
     assert d.cause == "none" and d.causes == () and d.extended.model is d.baseline.model, d.why
     assert d.cross_validation_cause == "none"
     assert d.validation["verdict_by"] == "each record alone", d.why
@@ -1718,6 +1707,18 @@ def test_a_hold_a_hair_below_the_fitted_range_is_scored_on_the_second_record():
     assert score_on_record(fit, far, h.simulate(far), 1e-3, (0.0, 100.0))["scored_samples"] == 299
 
 
+def _diagnose_outside_pair(seed: int, plant: str, effect: str):
+    """``(pair, diagnosis)``: the outside-class pair of ``seed`` (checked to be of ``plant`` with
+    ``effect``), its first record diagnosed and validated on its second."""
+    import outside_class_records
+
+    pair = outside_class_records.make_outside_pair(seed)
+    assert pair.plant == plant and pair.effect == effect
+    fs = pair.train.sample_rate_hz
+    return pair, diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
+                          validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
+
+
 def _third_record_rms(pair, model) -> float:
     """RMS error (µm) of a model's prediction of the pair's third record (never given to the
     diagnosis) against its noise-free displacement, after the record's settling window (the
@@ -1804,14 +1805,7 @@ def test_a_general_rate_independent_model_on_both_records_tells_a_loop_shape_fro
     `unexplained` (neither record alone, nor the swap, decides).  A discrete Preisach model fitted
     on both records together reaches the noise of each without an effect on seed 24 (nothing is
     named), and only with the lag on seed 4."""
-    import outside_class_records
-
-    pair = outside_class_records.make_outside_pair(seed)
-    truth = {24: "none", 4: "lag"}[seed]
-    assert pair.plant == "preisach" and pair.effect == truth
-    fs = pair.train.sample_rate_hz
-    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
-                 validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
+    _, d = _diagnose_outside_pair(seed, "preisach", {24: "none", 4: "lag"}[seed])
     assert d.validation["verdict_by"] == "general model on both records", d.why
     assert "by the two records together" in d.why, d.why
     assert "Without the general model the verdict would be unexplained" in d.why, d.why
@@ -1830,13 +1824,7 @@ def test_a_named_cause_whose_model_misses_the_second_record_is_judged_by_the_gen
     the general model on both records, which holds a lag and an input low-pass alike, leaves
     0.03 σ² with the lag and 21 σ² with the input low-pass, so the lag is named, and the third record
     (never given) is predicted better than by the plain fit."""
-    import outside_class_records
-
-    pair = outside_class_records.make_outside_pair(60)
-    assert pair.plant == "preisach" and pair.effect == "lag"
-    fs = pair.train.sample_rate_hz
-    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
-                 validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
+    pair, d = _diagnose_outside_pair(60, "preisach", "lag")
     assert d.causes == ("rate_dependence",) and d.validation["verdict_by"] == "general model on both records", d.why
     assert "rate_dependent_hysteresis was named, but rate_dependent_hysteresis's model" in d.why, d.why
     assert "Without the general model the verdict would be rate_dependent_hysteresis" in d.why, d.why
@@ -1851,13 +1839,7 @@ def test_a_none_the_plain_fit_cannot_carry_to_the_second_record_is_put_to_the_ge
     record leaves the second more than its noise above it: the general model on both records, which
     holds the Preisach hysteresis, is asked, and only creep brings both records to their noise.
     Creep is named, and the third record (never given) is predicted better than by the plain fit."""
-    import outside_class_records
-
-    pair = outside_class_records.make_outside_pair(34)
-    assert pair.plant == "preisach" and pair.effect == "creep"
-    fs = pair.train.sample_rate_hz
-    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
-                 validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
+    pair, d = _diagnose_outside_pair(34, "preisach", "creep")
     assert d.causes == ("creep",) and d.validation["verdict_by"] == "general model on both records", d.why
     assert "nothing was named, but the plain fit of the first record leaves the second" in d.why, d.why
     assert "Without the general model nothing would be named: no candidate lowers" in d.why, d.why
@@ -1879,13 +1861,7 @@ def test_a_named_cause_gives_way_when_one_rate_independent_actuator_fits_both_re
     a lag, whose model, fitted on the first record, leaves the second far above its noise; the
     general model on both records, whose Bouc-Wen operators hold this hysteresis, fits each record
     to its noise without any effect: nothing is named, and the plain fit is delivered."""
-    import outside_class_records
-
-    pair = outside_class_records.make_outside_pair(49)
-    assert pair.plant == "bouc_wen" and pair.effect == "none"
-    fs = pair.train.sample_rate_hz
-    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
-                 validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
+    _, d = _diagnose_outside_pair(49, "bouc_wen", "none")
     assert d.cause == "none" and d.causes == (), d.why
     assert d.validation["verdict_by"] == "general model on both records", d.why
     assert "rate_dependence was named, but rate_dependence's model" in d.why, d.why
@@ -1899,13 +1875,7 @@ def test_a_bouc_wen_actuator_without_an_effect_left_unexplained_by_the_mpi_model
     sweep second.  The MPI models leave the first record unexplained (8.3 σ² out of sample, no
     candidate significant); the general model with its Bouc-Wen operators fits both records to
     their noise: nothing is named, and the plain fit is delivered."""
-    import outside_class_records
-
-    pair = outside_class_records.make_outside_pair(137)
-    assert pair.plant == "bouc_wen" and pair.effect == "none"
-    fs = pair.train.sample_rate_hz
-    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, fs,
-                 validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
+    _, d = _diagnose_outside_pair(137, "bouc_wen", "none")
     assert d.cause == "none" and d.causes == (), d.why
     assert d.validation["verdict_by"] == "general model on both records", d.why
     assert "Without the general model the verdict would be unexplained" in d.why, d.why

@@ -135,7 +135,8 @@ def test_creep_after_an_unknown_history_is_named_with_admissible_modes(inputs):
     # (2.0 σ² and more before the Bouc-Wen operators, whose slow memory of the path takes part of it)
     assert fits["none"].excess_sigma2 > 0.5
     assert max(fits["creep"].mse_sigma2) < 1.0 + NOISE_FRACTION
-    modes = fits["creep"].weights[HYSTERESIS_COLUMNS:HYSTERESIS_COLUMNS + creep_time_constants_s(v1.size, 1 / RATE_HZ).size]
+    n_modes = creep_time_constants_s(v1.size, 1 / RATE_HZ).size
+    modes = fits["creep"].weights[HYSTERESIS_COLUMNS:HYSTERESIS_COLUMNS + n_modes]
     assert np.all(modes >= 0.0) and modes.sum() > 0.0
 
 

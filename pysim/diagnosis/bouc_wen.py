@@ -44,6 +44,10 @@ def _rates():
     return np.repeat(RATES, RATES.size), np.tile(RATES, RATES.size)
 
 
+def _normalised(voltage_V, range_V) -> np.ndarray:
+    return (np.asarray(voltage_V, dtype=float) - range_V[0]) / (range_V[1] - range_V[0])
+
+
 def _rising(g0, travel, rate_pos, rate_neg):
     """The state after ``travel`` (>= 0, one column per sample of a run, rows) of rising input from
     ``g0`` (per operator): ``dg/dx = 1 - k g`` with ``k = rate_neg`` below zero, ``rate_pos`` above."""
@@ -87,7 +91,7 @@ def bouc_wen_bank(voltage_V, range_V) -> np.ndarray:
     >>> bool(np.allclose(slow[::10], h))
     True
     """
-    x = (np.asarray(voltage_V, dtype=float) - range_V[0]) / (range_V[1] - range_V[0])
+    x = _normalised(voltage_V, range_V)
     rate_pos, rate_neg = _rates()
     out = np.zeros((x.size, rate_pos.size))
     if x.size < 2:
@@ -126,6 +130,5 @@ def forgotten_from(voltage_V, range_V) -> int:
     >>> forgotten_from(v, (0.0, 100.0))
     100
     """
-    x = (np.asarray(voltage_V, dtype=float) - range_V[0]) / (range_V[1] - range_V[0])
-    travel = np.r_[0.0, np.cumsum(np.abs(np.diff(x)))]
+    travel = np.r_[0.0, np.cumsum(np.abs(np.diff(_normalised(voltage_V, range_V))))]
     return int(np.searchsorted(travel, 6.0 / RATES.min() - 1e-12))

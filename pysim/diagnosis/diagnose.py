@@ -1013,10 +1013,12 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         # a decisive effect; an MPI actuator without one fits the second record within 1 σ² and is
         # never asked
         said = verdict_on_both_records(effects_on_both_records(v, y, T, v2, y2, T, stop_at_noise=True))
-        if named_before != "unexplained" and (said["cause"] is None or set(named_set) & set(said["causes"])
-                                               or (said["cause"] == "none"
-                                                   and (named_before == "none"
-                                                        or said["left_sigma2"]["none"] > NEAR_NOISE_FRACTION))):
+        # what stands of a verdict the MPI models named: nothing decisive, or a set that holds the name
+        # already, changes nothing; `none` only replaces a cause where the model alone leaves nothing
+        keeps_name = said["cause"] is None or bool(set(named_set) & set(said["causes"]))
+        none_too_weak = said["cause"] == "none" and (named_before == "none"
+                                                     or said["left_sigma2"]["none"] > NEAR_NOISE_FRACTION)
+        if named_before != "unexplained" and (keeps_name or none_too_weak):
             said = dict(said, cause=None)
         if said["cause"] is not None:
             general = said["sentence"]
