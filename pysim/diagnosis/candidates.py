@@ -502,7 +502,16 @@ class CandidateFitter:
             if sse >= best[0]:
                 break
             best = (sse, shares)
-        shares = best[1]
+        return self.displacement_creep_given(base, taus, best[1])
+
+    def displacement_creep_given(self, base: Family, time_constants_s, shares) -> Family:
+        """Creep driven by the hysteresis output with its modes given (time constants, s, and
+        shares >= 0 of the displacement, summing below 1): only the weights are fitted (modes
+        found elsewhere, e.g. by :func:`pysim.diagnosis.preisach.creep_on_both_records`)."""
+        taus, shares = np.asarray(time_constants_s, dtype=float), np.asarray(shares, dtype=float)
+        if taus.shape != shares.shape or np.any(taus <= 0) or np.any(shares < 0) or shares.sum() >= 1.0:
+            raise DiagnosisError(f"displacement creep needs one share >= 0 per time constant > 0, summing below 1 "
+                                 f"(time constants {taus.tolist()} s, shares {shares.tolist()})")
         keep = np.flatnonzero(shares > 0)
         taus, shares = taus[keep], shares[keep]
         if taus.size == 0:

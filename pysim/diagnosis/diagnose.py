@@ -131,11 +131,12 @@ from pysim.diagnosis.rules import (MIN_GAIN_PCT, NEAR_NOISE_FRACTION, NOISE_FRAC
 from pysim.diagnosis.scoring import (Evaluation, blocked_score, candidates_on_either_base,
                                      rate_independent_models, cv_runner, well_scored)
 from pysim.diagnosis.second_record import (RolesStand, best_fitted_on_both_records, best_predictor_of_set,
+                                           creep_modes_of_both_records,
                                            both_records_sentence, delivering_verdict, dynamics_where_they_show,
                                            fit_on_both_records, predicts_second_record_better,
                                            second_record_fitter, structure_on_both,
                                            told_apart_by_second_record, validate_on_second_record)
-from pysim.diagnosis.shape import correct_for_shape
+from pysim.diagnosis.shape import correct_for_shape, correct_like_the_others
 from pysim.diagnosis.steps import shown_by_steps
 from pysim.diagnosis.validation import score_on_record
 from pysim.identification.data import (checked_sample_rate, common_sample_rate, resample_record,
@@ -1063,6 +1064,18 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                        validation=baseline.validation)
     extended = (candidates[cause] if cause in EFFECTS else
                 candidates[verdict["best"]] if cause == "unexplained" and verdict["best"] is not None else plain)
+    modes_sentence = ""
+    if validation is not None and extended is not plain and extended.cause == "creep" and not unidentified:
+        # creep's modes from the general model on both records, where they cannot take up the MPI
+        # model's loop-shape error (creep_modes_of_both_records)
+        found = creep_modes_of_both_records(fitter, run, extended, v2, y2)
+        if found is not None:
+            extended, modes_sentence = found
+            if "first" in shape:
+                correct_like_the_others(extended, folds, y, mask, path_memory(v))
+            gains(extended)
+            validation.update(delivered_creep_modes="general model on both records",
+                              note=f"{validation['note']}; {modes_sentence}")
     withheld_sentence = ""
     # an extension fitted with its own hysteresis part may carry that part to a new input worse than
     # the plain fit does (operators the first record barely moves, a range it never reaches): one that
@@ -1086,7 +1099,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         # the delivered model's hysteresis and effect parameters are refitted on both records, when
         # that predicts the first record's held-out blocks no worse (not after a shape correction:
         # its scores are of corrected predictions)
-        joint = fit_on_both_records(fitter, extended, v2, y2, T, folds, noise, joint_first.get(extended.cause))
+        joint = fit_on_both_records(fitter, extended, v2, y2, T, folds, noise,
+                                    None if modes_sentence else joint_first.get(extended.cause))
         if joint is not None:
             fit, first_rms_pct, second_rms_pct = joint
             both_sentence = (
@@ -1115,6 +1129,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         why += f". {held_sentence[0].upper()}{held_sentence[1:]}"
     if unidentified:
         why += f". The record cannot identify the hysteresis: {unidentified}{delivery_remark}"
+    if modes_sentence:
+        why += f". {modes_sentence[0].upper()}{modes_sentence[1:]}"
     if withheld_sentence:
         why += f". {withheld_sentence}"
     if both_sentence:

@@ -21,7 +21,7 @@ from pysim.diagnosis.path_memory import path_predicted
 from pysim.diagnosis.rules import NOISE_FRACTION, UNEXPLAINED_LEVEL
 from pysim.diagnosis.scoring import blocked_score
 
-__all__ = ["path_corrected", "correct_for_shape", "correct_validation_for_shape"]
+__all__ = ["path_corrected", "correct_for_shape", "correct_like_the_others", "correct_validation_for_shape"]
 
 
 def path_corrected(predictions: dict, y, memory, blocks, score, noise_um: float, reference) -> tuple | None:
@@ -109,13 +109,25 @@ def correct_for_shape(evaluations, folds, y, mask, memory, noise_um) -> dict:
     if found is None:
         return {}
     corrected, evidence = found
-    span = float(np.ptp(y[mask]))
     for i, ev in enumerate(evaluations):
-        ev.cv_prediction_um = corrected[i]
-        ev.per_block_mse_um2, score = blocked_score(y, corrected[i], folds)
-        ev.rms_um = math.sqrt(score)
-        ev.rms_pct = 100.0 * ev.rms_um / span
+        _rescored(ev, corrected[i], folds, y, mask)
     return evidence
+
+
+def correct_like_the_others(evaluation, folds, y, mask, memory) -> None:
+    """Correct one more model's cross-validated prediction as :func:`correct_for_shape` corrected
+    the others (after it found that the correction counts): its residual's part that the input's
+    path alone predicts is added, and it is scored again."""
+    shape = path_predicted((y - evaluation.cv_prediction_um)[:, None], memory, folds)[:, 0]
+    _rescored(evaluation, np.where(np.isfinite(shape), evaluation.cv_prediction_um + shape,
+                                   evaluation.cv_prediction_um), folds, y, mask)
+
+
+def _rescored(evaluation, prediction_um, folds, y, mask) -> None:
+    evaluation.cv_prediction_um = prediction_um
+    evaluation.per_block_mse_um2, score = blocked_score(y, prediction_um, folds)
+    evaluation.rms_um = math.sqrt(score)
+    evaluation.rms_pct = 100.0 * evaluation.rms_um / float(np.ptp(y[mask]))
 
 
 def correct_validation_for_shape(evaluations, v2, y2, noise2_um, memory2) -> dict:
