@@ -1778,6 +1778,20 @@ def test_creep_outside_the_mpi_class_is_delivered_with_the_general_models_modes(
     assert rms["delivered"] < 0.8 * rms["plain"] < 0.8 * rms["first record alone"], rms
 
 
+def test_creep_that_the_general_model_gives_no_weight_gives_way_to_none():
+    """Truth (outside-class seed 73): a Bouc-Wen actuator without an effect; first record random
+    triangles, second a sine sweep.  The MPI models name creep, and creep's model carries to the
+    second record, so no miss there puts the name to the general model.  The general model with
+    creep, fitted on both records, puts no weight on any creep mode (every creep record of the
+    outside-class seeds 0-146 gets 2-13 % there), and alone it fits both records within their
+    noise: nothing is named, and the plain fit is delivered."""
+    pair, d = _diagnose_outside_pair(73, "bouc_wen", "none")
+    assert d.cause == "none" and not d.causes, d.why
+    assert "puts no weight on any creep mode" in d.why
+    assert d.validation["verdict_by"] == "general model on both records"
+    assert d.extended.fit is d.baseline.fit
+
+
 def test_a_refit_on_both_records_that_the_first_records_blocks_reject_is_not_delivered():
     """Truth (the independent generator's pair 1): a 28.6 Hz resonance (ζ = 0.49), first record one
     sine, second steps and sines.  The sine finds the resonance at 26.5 Hz; with that shape fixed,

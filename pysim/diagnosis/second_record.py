@@ -388,7 +388,7 @@ def _joint_held_out_second(fitter: CandidateFitter, setting, v2, n_blocks: int =
     return float(np.median(errors)) if errors else float("nan")
 
 
-def creep_modes_of_both_records(fitter: CandidateFitter, run, extended: Evaluation, v2, y2):
+def creep_modes_of_both_records(fitter: CandidateFitter, run, extended: Evaluation, v2, y2, general=None):
     """``(evaluation, sentence)``: creep's model with its modes (time constants and shares) from
     the general rate-independent model fitted on both records
     (:func:`pysim.diagnosis.preisach.creep_on_both_records`) and its MPI weights fitted on the
@@ -409,9 +409,11 @@ def creep_modes_of_both_records(fitter: CandidateFitter, run, extended: Evaluati
     the first record's modes, which then predict the third record 3.2 times worse than the plain
     fit, where these modes predict it 1.01 times).  ``run`` is the first record's cross-validating
     runner (:func:`pysim.diagnosis.scoring.cv_runner`); the evaluation returned is scored on the
-    second record as every model is there.
+    second record as every model is there.  ``general``: the general model's creep fit when it is
+    known already (fitted here otherwise).
     """
-    general = creep_on_both_records(fitter.v, fitter.y, fitter.T, v2, y2, fitter.T)
+    if general is None:
+        general = creep_on_both_records(fitter.v, fitter.y, fitter.T, v2, y2, fitter.T)
     modes = general.creep
     if (modes is None or modes["driven_by"] != "displacement" or not 0.0 < sum(modes["weights"]) <= MAX_CREEP_SHARE
             or max(general.mse_sigma2) > 1.0 + UNEXPLAINED_LEVEL):
