@@ -85,15 +85,21 @@ Procedure (``diagnose``):
    confirms nothing.
    **General model** (:mod:`pysim.diagnosis.preisach`): a discrete Preisach
    model, alone and with each effect it holds, fitted on both records
-   together, judges three verdicts the MPI models cannot settle: an
+   together, judges four verdicts the MPI models cannot settle: an
    ``unexplained`` one; a named lag, delay, creep or input low-pass whose own
    model leaves the second record ``UNEXPLAINED_LEVEL`` σ² above its noise;
-   and a ``none`` whose plain fit leaves the second record ``PLAIN_MISS_LEVEL``
-   σ² above its noise (after the second record has had its turn).  A decisive
-   effect there is named; a named cause gives way to ``none`` only when the
-   general model alone fits each record to its noise and leaves under
-   ``NEAR_NOISE_FRACTION`` σ² over both (nothing is left for the cause to
-   explain), and a ``none`` is never replaced by anything less.
+   a named creep to whose modes the general model with creep gives no weight
+   (``NO_CREEP_WEIGHT``); and a ``none`` whose plain fit leaves the second
+   record ``PLAIN_MISS_LEVEL`` σ² above its noise (after the second record has
+   had its turn).  A decisive effect there is named; a named cause gives way
+   to ``none`` only when the general model alone fits each record to its noise
+   and leaves under ``NEAR_NOISE_FRACTION`` σ² over both (nothing is left for
+   the cause to explain), and a ``none`` is never replaced by anything less.
+   A creep delivered takes its modes from the general model on both records
+   when that model's creep is admissible and driven by the displacement
+   (:func:`pysim.diagnosis.second_record.creep_modes_of_both_records`): fitted
+   with the MPI weights on one record, the modes also take up the MPI
+   model's loop-shape error.
    **Holds** of the input (:mod:`pysim.diagnosis.holds`) also weigh the
    verdict: a rate-independent actuator stands still in them, so they turn an
    ``unexplained`` verdict into ``none``, rule out a named cause whose model

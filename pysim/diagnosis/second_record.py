@@ -12,7 +12,9 @@ are told apart by how each structure fits both records
 (:func:`structure_on_both`).  The model delivered is refitted on both
 records when that costs the first record's held-out blocks nothing beyond
 the noise (:func:`fit_on_both_records`), and an extension that predicts
-the second record worse than the plain fit is not delivered.
+the second record worse than the plain fit is not delivered.  A creep
+delivered takes its modes from the general model on both records
+(:func:`creep_modes_of_both_records`).
 """
 from __future__ import annotations
 
