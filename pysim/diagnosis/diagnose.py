@@ -719,7 +719,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
                                            y)
     # a hysteresis shape outside the model class: every model is compared after the same correction
     shape = {}
-    first_shape = correct_for_shape([baseline, richer, *candidates.values()], folds, y, mask, path_memory(v),
+    first_memory = path_memory(v)
+    first_shape = correct_for_shape([baseline, richer, *candidates.values()], folds, y, mask, first_memory,
                                      noise)
     if first_shape:
         shape["first"] = first_shape
@@ -1096,7 +1097,7 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         if found is not None:
             extended, modes_sentence = found
             if "first" in shape:
-                correct_like_the_others(extended, folds, y, mask, path_memory(v))
+                correct_like_the_others(extended, folds, y, mask, first_memory)
             gains(extended)
             validation.update(delivered_creep_modes="general model on both records",
                               note=f"{validation['note']}; {modes_sentence}")

@@ -404,10 +404,11 @@ def creep_modes_of_both_records(fitter: CandidateFitter, run, extended: Evaluati
     and 5 % at 0.57 s).  They predict the second record well enough for the cause to stand, then
     bend a third input's loops the wrong way (2.0 times the plain fit's RMS error there).  The
     general model's modes, fitted where any rate-independent shape is held, come out at 4.3 % at
-    25 ms, 1.9 % at 70 ms and 5.2 % at 0.58 s; with them the third record's error is 0.86 times the
-    plain fit's (1.09 times once the model is refitted on both records, as it then is).  They are not chosen by how they predict the second record as fitted: with the
-    MPI model's shape error at hundreds of σ² there, that measures how the shape error of each
-    hysteresis part carries, not the creep (outside-class seed 139: 301 σ² against 155 σ² for
+    25 ms, 1.9 % at 70 ms and 5.2 % at 0.58 s; with them the third record's error is 0.86 times
+    the plain fit's (1.09 times once the model is refitted on both records, as it then is).  They
+    are not chosen by how they predict the second record as fitted: with the MPI model's shape
+    error at hundreds of σ² there, that measures how the shape error of each hysteresis part
+    carries, not the creep (outside-class seed 139: 301 σ² against 155 σ² for
     the first record's modes, which then predict the third record 3.2 times worse than the plain
     fit, where these modes predict it 1.01 times).  ``run`` is the first record's cross-validating
     runner (:func:`pysim.diagnosis.scoring.cv_runner`); the evaluation returned is scored on the

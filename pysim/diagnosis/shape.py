@@ -86,8 +86,7 @@ def path_corrected(predictions: dict, y, memory, blocks, score, noise_um: float,
     keys = list(predictions)
     # every model's residual at once: the nearest paths are found once per block
     shapes = path_predicted(np.column_stack([y - predictions[k] for k in keys]), memory, blocks)
-    corrected = {k: np.where(np.isfinite(shapes[:, i]), predictions[k] + shapes[:, i], predictions[k])
-                 for i, k in enumerate(keys)}
+    corrected = {k: _plus_shape(predictions[k], shapes[:, i]) for i, k in enumerate(keys)}
     before = {k: score(k, p) for k, p in predictions.items()}
     after = {k: score(k, p) for k, p in corrected.items()}
     reference = list(reference)
@@ -109,8 +108,9 @@ def correct_for_shape(evaluations, folds, y, mask, memory, noise_um) -> dict:
     if found is None:
         return {}
     corrected, evidence = found
+    span = float(np.ptp(y[mask]))
     for i, ev in enumerate(evaluations):
-        _rescored(ev, corrected[i], folds, y, mask)
+        _rescored(ev, corrected[i], folds, y, span)
     return evidence
 
 
@@ -119,15 +119,19 @@ def correct_like_the_others(evaluation, folds, y, mask, memory) -> None:
     the others (after it found that the correction counts): its residual's part that the input's
     path alone predicts is added, and it is scored again."""
     shape = path_predicted((y - evaluation.cv_prediction_um)[:, None], memory, folds)[:, 0]
-    _rescored(evaluation, np.where(np.isfinite(shape), evaluation.cv_prediction_um + shape,
-                                   evaluation.cv_prediction_um), folds, y, mask)
+    _rescored(evaluation, _plus_shape(evaluation.cv_prediction_um, shape), folds, y, float(np.ptp(y[mask])))
 
 
-def _rescored(evaluation, prediction_um, folds, y, mask) -> None:
+def _plus_shape(prediction_um, shape_um):
+    """The prediction plus the path-predicted shape error, where the path predicts one."""
+    return np.where(np.isfinite(shape_um), prediction_um + shape_um, prediction_um)
+
+
+def _rescored(evaluation, prediction_um, folds, y, span_um: float) -> None:
     evaluation.cv_prediction_um = prediction_um
     evaluation.per_block_mse_um2, score = blocked_score(y, prediction_um, folds)
     evaluation.rms_um = math.sqrt(score)
-    evaluation.rms_pct = 100.0 * evaluation.rms_um / float(np.ptp(y[mask]))
+    evaluation.rms_pct = 100.0 * evaluation.rms_um / span_um
 
 
 def correct_validation_for_shape(evaluations, v2, y2, noise2_um, memory2) -> dict:
