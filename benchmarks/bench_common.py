@@ -50,10 +50,14 @@ class Row:
 
 def seed_arguments(description: str, default_records: int) -> argparse.ArgumentParser:
     """The command line of a benchmark that runs one record set per seed: ``--records N``
-    (default ``default_records``) and ``--first-seed S``; add options to the parser returned."""
+    (default ``default_records``), ``--first-seed S`` and ``--first-record-only`` (the diagnosis
+    is given the first record alone, as a user without a second record runs it; the second record
+    is then only predicted); add options to the parser returned."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--records", type=int, default=default_records, help="number of seeds")
     parser.add_argument("--first-seed", type=int, default=0, help="first seed")
+    parser.add_argument("--first-record-only", action="store_true",
+                        help="diagnose the first record without the second (no validate=)")
     return parser
 
 
@@ -90,7 +94,7 @@ def print_outcome_summary(rows, effects) -> None:
 
 def diagnose_and_score(row: dict, first, second, truth: str, third_rms_pct):
     """Diagnose the record ``first`` = (voltage V, displacement µm, sample rate Hz) validated on
-    ``second`` and add to ``row``: ``seconds``, ``named``, ``outcome`` (:func:`named_and_outcome`)
+    ``second`` (None: the first record alone) and add to ``row``: ``seconds``, ``named``, ``outcome`` (:func:`named_and_outcome`)
     and the third record's ``third_baseline_rms_pct`` and ``third_extended_over_baseline``
     (``third_rms_pct(model)``: that model's error there, %); a refusal is an outcome (``refused``,
     with its ``message``).  Returns the diagnosis (None when refused)."""
@@ -99,7 +103,7 @@ def diagnose_and_score(row: dict, first, second, truth: str, third_rms_pct):
 
     start = time.perf_counter()
     try:
-        d = diagnose(*first, validate=tuple(second))
+        d = diagnose(*first, validate=None if second is None else tuple(second))
     except PiezoMPIError as exc:
         row.update(outcome="refused", named="refused", message=str(exc), seconds=time.perf_counter() - start)
         return None

@@ -23,7 +23,10 @@ record the RMS error of the model delivered over the plain fit's, against
 the noise-free record, after its first 0.1 s.  ``eff/σ``: the effect's RMS on
 the first record after its first 0.1 s, over the noise σ.
 
-    python benchmarks/bench_diagnosis_excitations.py [--records N] [--first-seed S]
+    python benchmarks/bench_diagnosis_excitations.py [--records N] [--first-seed S] [--first-record-only]
+
+``--first-record-only`` gives the diagnosis the first record alone (no ``validate=``), as a
+user without a second record runs it.
 
 Each seed takes 5-25 s.  Progress goes to stderr.
 """
@@ -133,12 +136,15 @@ def _rms_pct(model, record) -> float:
     return settled_rms_pct(model, record["voltage_V"], record["clean_um"], SETTLE_S * SAMPLE_RATE_HZ)
 
 
-def evaluate(seed: int) -> dict:
-    """Diagnose one seed's first record with its second and score the outcome."""
+def evaluate(seed: int, second_record: bool = True) -> dict:
+    """Diagnose one seed's first record with its second (alone when ``second_record`` is false)
+    and score the outcome."""
     rec = make_records(seed)
     row = {"seed": seed, "kind": rec["kind"], "effect": rec["effect"], "plant": rec["plant"],
            "effect_to_noise": rec["train"]["effect_to_noise"]}
     given = [(rec[role]["voltage_V"], rec[role]["displacement_um"], SAMPLE_RATE_HZ) for role in ("train", "validation")]
+    if not second_record:
+        given[1] = None
     # the effects' names here are the catalogue's
     diagnose_and_score(row, *given, rec["effect"], lambda model: _rms_pct(model, rec["test"]))
     return row
@@ -146,7 +152,7 @@ def evaluate(seed: int) -> dict:
 
 def main(argv=None) -> int:
     args = seed_arguments(__doc__.split("\n\n")[0], 30).parse_args(argv)
-    rows = over_seeds(evaluate, args.first_seed, args.records,
+    rows = over_seeds(lambda seed: evaluate(seed, not args.first_record_only), args.first_seed, args.records,
                       lambda row: f"{row['kind']} {row['effect']} -> {row['named']} ({row['outcome']}), "
                                   f"{row['seconds']:.1f} s")
     print(f"{'seed':>4} {'first record':24} {'plant':15} {'effect':6} {'eff/σ':>6} {'named':42} {'outcome':12} "

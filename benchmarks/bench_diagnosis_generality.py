@@ -65,7 +65,11 @@ prediction
     the validation record (what a model with the true hysteresis and no
     effect would miss), both in % of the range.
 
-    python benchmarks/bench_diagnosis_generality.py [--records N] [--first-seed S] [--json]
+    python benchmarks/bench_diagnosis_generality.py [--records N] [--first-seed S] [--json] [--first-record-only]
+
+``--first-record-only`` gives the diagnosis the first record alone (no ``validate=``), as a
+user without a second record runs it.
+The validation record is then a prediction as well.
 
 Making the records takes about a second per seed; the diagnosis dominates
 the run time (with ``validate=`` and the excitation replays, 10-160 s per
@@ -480,6 +484,8 @@ def main(argv=None) -> int:
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
     args = parser.parse_args(argv)
     api = _Api()
+    if args.first_record_only:
+        api.validate = False           # as a user without a second record runs it
     start = time.perf_counter()
     rows = over_seeds(lambda seed: evaluate(api, seed), args.first_seed, args.records,
                       lambda row: f"{row['truth']} -> {_label(row)} ({row['outcome']}), "

@@ -17,7 +17,10 @@ included), ``wrong``, ``missed`` (``none`` named for an effect), ``refused``.
 The third record: RMS error of each model against the noise-free record
 after 0.1 s, and their ratio (extended / baseline).
 
-    python benchmarks/bench_diagnosis_outside_class.py [--records N] [--first-seed S]
+    python benchmarks/bench_diagnosis_outside_class.py [--records N] [--first-seed S] [--first-record-only]
+
+``--first-record-only`` gives the diagnosis the first record alone (no ``validate=``), as a
+user without a second record runs it.
 
 Each record pair takes 5-60 s (the Preisach model is simulated relay by relay
 on a grid eight times finer than the samples).  Progress goes to stderr.
@@ -42,12 +45,14 @@ def _rms_pct(model, record) -> float:
     return settled_rms_pct(model, record.voltage_V, record.clean_um, SETTLE_S * record.sample_rate_hz)
 
 
-def evaluate(seed: int) -> dict:
-    """Diagnose one pair and score it."""
+def evaluate(seed: int, second_record: bool = True) -> dict:
+    """Diagnose one pair (the first record alone when ``second_record`` is false) and score it."""
     pair = records.make_outside_pair(seed)
     row = {"seed": seed, "plant": pair.plant, "effect": pair.effect,
            "inputs": f"{pair.train.input_kind}/{pair.validation.input_kind}/{pair.test.input_kind}"}
     records_given = [(r.voltage_V, r.displacement_um, r.sample_rate_hz) for r in (pair.train, pair.validation)]
+    if not second_record:
+        records_given[1] = None
     d = diagnose_and_score(row, *records_given, "none" if pair.effect == "none" else pair.catalogue_name,
                            lambda model: _rms_pct(model, pair.test))
     if d is not None:
@@ -57,7 +62,7 @@ def evaluate(seed: int) -> dict:
 
 def main(argv=None) -> int:
     args = seed_arguments(__doc__.split("\n\n")[0], 24).parse_args(argv)
-    rows = over_seeds(evaluate, args.first_seed, args.records,
+    rows = over_seeds(lambda seed: evaluate(seed, not args.first_record_only), args.first_seed, args.records,
                       lambda row: f"{row['plant']} {row['effect']} -> {row['named']} ({row['outcome']}), "
                                   f"{row['seconds']:.1f} s")
     print(f"{'seed':>4} {'plant':9} {'effect':6} {'inputs (1st/2nd/3rd)':34} {'named':34} {'outcome':12} "

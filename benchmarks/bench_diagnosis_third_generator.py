@@ -22,7 +22,10 @@ and their ratio extended / baseline: ``better`` below 1 - 1e-3, ``worse``
 above 1 + 1e-3, else ``same``.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_diagnosis_third_generator.py \\
-        [--records N] [--first-seed S] [--json FILE]
+        [--records N] [--first-seed S] [--json FILE] [--first-record-only]
+
+``--first-record-only`` gives the diagnosis the first record alone (no ``validate=``), as a
+user without a second record runs it.
 
 Making the records takes about 20 ms per seed; the diagnosis takes 4-55 s
 per seed on one core with one BLAS thread (median about 17 s: about 20 min
@@ -82,8 +85,9 @@ def _third_record(d, record, sample_rate_hz) -> dict:
             "extended_error_sigma": ext_error / record.noise_um}
 
 
-def evaluate(seed: int) -> dict:
-    """Diagnose the first record of ``seed`` (validated on the second) and score it."""
+def evaluate(seed: int, second_record: bool = True) -> dict:
+    """Diagnose the first record of ``seed`` (validated on the second unless ``second_record`` is
+    false) and score it."""
     from pysim.core.errors import PiezoMPIError
     from pysim.diagnosis import diagnose
 
@@ -100,7 +104,7 @@ def evaluate(seed: int) -> dict:
     t0 = time.perf_counter()
     try:
         d = diagnose(first.voltage_V, first.displacement_um, fs,
-                     validate=(second.voltage_V, second.displacement_um, fs))
+                     validate=(second.voltage_V, second.displacement_um, fs) if second_record else None)
     except PiezoMPIError as exc:
         row.update(outcome="refused", cause=None, causes=[], why=f"{type(exc).__name__}: {exc}",
                    seconds=time.perf_counter() - t0)
@@ -191,7 +195,7 @@ def main(argv=None) -> int:
     parser.add_argument("--json", metavar="FILE", help="also save the per-seed results as JSON")
     args = parser.parse_args(argv)
     start = time.perf_counter()
-    rows = over_seeds(evaluate, args.first_seed, args.records,
+    rows = over_seeds(lambda seed: evaluate(seed, not args.first_record_only), args.first_seed, args.records,
                       lambda row: f"{row['truth']} -> {row['cause']} ({row['outcome']}), {row['seconds']:.1f} s")
     print_table(rows)
     print()

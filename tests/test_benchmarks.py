@@ -206,3 +206,31 @@ def test_per_seed_runs_keep_the_order_and_report_each_seed(capsys):
     err = capsys.readouterr().err.splitlines()
     assert err == ["[1/3] seed 7: square 49", "[2/3] seed 8: square 64", "[3/3] seed 9: square 81"]
     assert bench_common.seed_arguments("x", 60).parse_args([]).records == 60
+
+
+def test_first_record_only_gives_the_diagnosis_no_second_record(monkeypatch):
+    import types
+
+    import bench_common
+    import pysim.diagnosis
+
+    calls = []
+
+    class Model:
+        def __init__(self, error_pct):
+            self.error_pct = error_pct
+
+    def fake_diagnose(v, y, fs, validate=None):
+        calls.append(validate)
+        return types.SimpleNamespace(cause="none", causes=("none",), baseline=types.SimpleNamespace(model=Model(2.0)),
+                                     extended=types.SimpleNamespace(model=Model(1.0)))
+
+    monkeypatch.setattr(pysim.diagnosis, "diagnose", fake_diagnose)
+    assert bench_common.seed_arguments("x", 5).parse_args(["--first-record-only"]).first_record_only
+    assert not bench_common.seed_arguments("x", 5).parse_args([]).first_record_only
+    first, second = ([0.0], [0.0], 1.0), ([1.0], [1.0], 1.0)
+    for given, expected in ((second, second), (None, None)):
+        row = {}
+        bench_common.diagnose_and_score(row, first, given, "none", lambda model: model.error_pct)
+        assert calls[-1] == expected
+        assert row["outcome"] == "right" and row["third_extended_over_baseline"] == 0.5
