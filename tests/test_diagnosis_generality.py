@@ -1920,3 +1920,24 @@ def test_a_bouc_wen_actuator_without_an_effect_left_unexplained_by_the_mpi_model
     assert d.validation["verdict_by"] == "general model on both records", d.why
     assert "Without the general model the verdict would be unexplained" in d.why, d.why
     assert d.extended.model is d.baseline.model
+
+
+def test_without_a_second_record_an_unexplained_verdict_delivers_the_plain_fit():
+    """Truth (outside-class pair 40): a Preisach actuator (2-D weight, no effect) on triangles,
+    given alone.  The MPI models leave its loop shape far above the noise and no cause explains
+    most of it: `unexplained`.  The best candidate's model is fitted to that shape, and it predicted
+    the third record (a sine sweep, never given) 10.6 times worse than the plain fit; nothing on one
+    record tests that, so the plain fit is delivered, and it predicts the third record no worse."""
+    import outside_class_records
+
+    pair = outside_class_records.make_outside_pair(40)
+    assert pair.plant == "preisach" and pair.effect == "none"
+    d = diagnose(pair.train.voltage_V, pair.train.displacement_um, pair.train.sample_rate_hz)
+    assert d.cause in ("unexplained", "none"), d.why      # a named effect would be a false alarm
+    assert d.extended.cause == "baseline" and d.gain_pct == 0.0
+    assert _third_record_rms(pair, d.extended.model) <= _third_record_rms(pair, d.baseline.model)
+    if d.cause == "unexplained":
+        assert "the model delivered is the plain fit" in d.why.lower(), d.why
+        # what it would have delivered: worse on the input it never saw
+        best = min(d.candidates.values(), key=lambda ev: ev.mse_um2)
+        assert _third_record_rms(pair, best.model) > 2 * _third_record_rms(pair, d.baseline.model)
