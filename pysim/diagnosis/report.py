@@ -360,6 +360,7 @@ def summary_markdown(d: Diagnosis) -> str:
     lines += [
         "",
         (f"Model delivered: the plain fit (`{d.withheld}`'s model predicts the second record worse)" if d.withheld
+         else f"Model delivered: the plain fit (no cause is named: `{d.cause}`)" if d.extended.cause == "baseline"
          else f"Extended model: `{d.extended.cause}`; gain **{d.gain_pct:.1f} %** less cross-validated RMS error "
          "than the baseline (`100 (1 − rms_after / rms_before)`)")
         + (f"; on the responses to {d.steps['windows']} step(s) into holds, each left out of its fit, it removes "
