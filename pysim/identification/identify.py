@@ -564,7 +564,8 @@ def operator_travel(low, high, rows: slice, voltage_V=None) -> np.ndarray:
     first reversal in ``rows`` (on the first monotone run an operator only
     follows the input, which the linear term already does)."""
     lo, hi = low[rows], high[rows]
-    fixed = np.isclose(lo, hi, rtol=0.0, atol=1e-9 * max(1.0, float(np.max(np.abs(hi)))))
+    # |lo − hi| ≤ atol: np.isclose with rtol = 0 on finite values, without its temporaries
+    fixed = np.abs(lo - hi) <= 1e-9 * max(1.0, float(np.max(np.abs(hi))))
     steps = np.abs(np.diff(lo, axis=0)) * (fixed[1:] & fixed[:-1])
     if not isinstance(rows, slice):
         steps[np.diff(np.asarray(rows)) != 1] = 0.0        # no travel across a gap between blocks
@@ -776,7 +777,9 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         raise IdentificationError(f"{max(stop - first, 0)} samples to fit (after a warm-up of {start})")
     rows = slice(first, stop)
     if fit_rows is not None:
-        rows = np.unique(np.asarray(fit_rows, dtype=int).ravel())
+        rows = np.asarray(fit_rows, dtype=int).ravel()
+        if rows.size > 1 and not np.all(rows[1:] > rows[:-1]):     # the folds pass sorted rows: no sort
+            rows = np.unique(rows)
         if rows.size < 2 or rows[0] < 0 or rows[-1] >= v.size:
             raise IdentificationError(f"fit_rows must hold at least 2 sample indices in 0..{v.size - 1}")
         first, stop = int(rows[0]), int(rows[-1]) + 1
@@ -853,8 +856,9 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     # Only the window's rows are fitted; the state matters only where an
     # operator has not yet forgotten it (low < high): the "transient" rows.
     low_w, high_w, y_w, u_w = low[rows], high[rows], y[rows], u[rows]
-    transient_rows = np.flatnonzero(np.any(high_w - low_w > 0, axis=1))
-    moving = [np.flatnonzero(high_w[:, i] - low_w[:, i] > 0) for i in range(r.size)]
+    remembers = np.ascontiguousarray((high_w - low_w > 0).T)      # operator × row, one row per operator
+    transient_rows = np.flatnonzero(np.any(remembers, axis=0))
+    moving = [np.flatnonzero(row) for row in remembers]
 
     def design(state, lo_b, hi_b, uu):
         ops = np.minimum(np.maximum(state, lo_b), hi_b)
@@ -862,8 +866,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         if cubic:
             A[:, 0] = uu**3
         A[:, n_lin - 1] = uu
-        for i in own:
-            A[:, column_of[i]] = ops[:, i]
+        if own:                                  # their columns are consecutive, in order
+            A[:, n_lin:n_lin + len(own)] = ops[:, own]
         for i in not_identifiable:
             if anchor[i] >= 0:
                 A[:, column_of[anchor[i]]] += factor[i] * ops[:, i]
