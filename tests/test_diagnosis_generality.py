@@ -1929,13 +1929,12 @@ def test_without_a_second_record_an_unexplained_verdict_delivers_the_plain_fit()
     the third record (a sine sweep, never given) 10.6 times worse than the plain fit; nothing on one
     record tests that, so the plain fit is delivered, and it predicts the third record no worse."""
     import outside_class_records
+    from pysim.diagnosis.report import summary_markdown
 
     pair = outside_class_records.make_outside_pair(40)
     assert pair.plant == "preisach" and pair.effect == "none"
     d = diagnose(pair.train.voltage_V, pair.train.displacement_um, pair.train.sample_rate_hz)
     assert d.cause in ("unexplained", "none"), d.why      # a named effect would be a false alarm
-    from pysim.diagnosis.report import summary_markdown
-
     assert d.extended.cause == "baseline" and d.gain_pct == 0.0
     assert f"Model delivered: the plain fit (no cause is named: `{d.cause}`)" in summary_markdown(d)
     assert _third_record_rms(pair, d.extended.model) <= _third_record_rms(pair, d.baseline.model)

@@ -1095,8 +1095,9 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     if cause == "unexplained" and extended is not plain and validation is None:
         # no cause is named and no record it was not fitted on tests the best candidate: its model is
         # fitted to what the catalogue does not explain (on actuators outside the MPI class, mostly the
-        # loop shape), and alone it predicted a third record worse than the plain fit on 7 of the 8 such
-        # records measured (outside-class seeds 0-47, first record alone: up to 10.6x)
+        # loop shape), and alone it predicted a third record worse than the plain fit on 15 of the 20
+        # such records measured (outside-class seeds 0-95, first record alone: up to 10.6x; better on 5,
+        # by at most 26 %)
         unexplained_sentence = (
             f"the model delivered is the plain fit: the best candidate, {extended.cause}, is fitted to what no "
             "cause of the catalogue explains, and without a second record nothing tests how it predicts a new "
