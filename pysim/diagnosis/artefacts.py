@@ -120,13 +120,16 @@ def record_artefacts(voltage_V, displacement_um, residual_um, noise_um: float, s
     return sorted(found, key=lambda a: a["sample"])
 
 
-def find_artefacts(voltage_V, displacement_um, sample_rate_hz: float, **fit_options) -> list:
+def find_artefacts(voltage_V, displacement_um, sample_rate_hz: float, *, fit=None, **fit_options) -> list:
     """:func:`record_artefacts` of a record against its plain rate-independent fit.
 
     The fit (:func:`pysim.identification.identify.identify` with
     ``fit_options``, every sample, the initial state estimated) and its
     residual's noise are the record's own; a record that cannot be fitted
     at all has no artefacts to report here (the diagnosis says why it cannot).
+    ``fit``: that fit of this very record, when the caller has made it already
+    (the diagnosis uses it again); jumps are still measured on refits of the
+    repaired record, with ``fit_options``.
 
     Examples
     --------
@@ -139,10 +142,11 @@ def find_artefacts(voltage_V, displacement_um, sample_rate_hz: float, **fit_opti
     """
     v = np.asarray(voltage_V, dtype=float).ravel()
     y = np.asarray(displacement_um, dtype=float).ravel()
-    try:
-        fit = identify(v, y, require_excitation=False, **fit_options)
-    except IdentificationError:
-        return []
+    if fit is None:
+        try:
+            fit = identify(v, y, require_excitation=False, **fit_options)
+        except IdentificationError:
+            return []
     residual = y - fit.prediction_um
     noise = record_noise_sigma(residual, y)
     found = record_artefacts(v, y, residual, noise, sample_rate_hz)

@@ -255,6 +255,10 @@ class CandidateFitter:
         ``slew_limit``) are searched, each on the design ``[hysteresis, 1]``.
         For a record that shows such dynamics but cannot identify the
         hysteresis (steps that only rise: the ringing, lag or ramp after each).
+    baseline_result : IdentificationResult, optional
+        The plain fit of this very record (``identify`` with these
+        ``n_operators``, ``model`` and ``operator``, every sample, without
+        requiring excitation), when the caller has made it already.
 
     Examples
     --------
@@ -270,7 +274,7 @@ class CandidateFitter:
 
     def __init__(self, voltage_V, displacement_um, sample_period_s: float, *, n_operators: int = 10,
                  model: str = "mpi", operator: str = "osp", name: str = "extended_mpi", description: str = "",
-                 fixed_hysteresis=None):
+                 fixed_hysteresis=None, baseline_result=None):
         self.v = np.asarray(voltage_V, dtype=float)
         self.y = np.asarray(displacement_um, dtype=float)
         self.T = float(sample_period_s)
@@ -289,8 +293,8 @@ class CandidateFitter:
             self.u, self.gain_sign = self.v, 1.0
             return
         self._fixed_design = None
-        self.baseline_result = identify(self.v, self.y, n_operators=self.n, model=model, operator=operator,
-                                        require_excitation=False)
+        self.baseline_result = baseline_result if baseline_result is not None else identify(
+            self.v, self.y, n_operators=self.n, model=model, operator=operator, require_excitation=False)
         try:
             self.richer_result = identify(self.v, self.y, n_operators=2 * self.n, model=model, operator=operator,
                                           require_excitation=False)

@@ -150,7 +150,8 @@ from pysim.diagnosis.validation import score_on_record
 from pysim.identification.data import (checked_sample_rate, common_sample_rate, resample_record,
                                        resampling_stride)
 from pysim.identification.errors import DataError
-from pysim.identification.identify import IdentificationError, identify, require_rising, start_transient
+from pysim.identification.identify import (IdentificationError, identify, require_rising, settling_samples,
+                                            start_transient)
 
 __all__ = ["diagnose", "Diagnosis"]
 
@@ -596,14 +597,23 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         rate2 = sample_rate_hz
     # spikes, jumps and flat runs no model of the actuator explains, found on each record's plain fit
     # first (a jump looks like drift or creep to every candidate); the records' roles are the user's
+    # the plain fit of every sample, made once: the artefacts are found on its residual, the start
+    # transient is read from it, and while neither changes the record the candidates start from it
+    # (None: the record cannot be fitted, which the start transient's own fit then says)
+    fit_options = {"n_operators": n_operators, "model": model, "operator": operator}
+    try:
+        whole_fit = identify(v, y, require_excitation=False, **fit_options)
+    except IdentificationError:
+        whole_fit = None
     artefacts = []
     if not _swap_reason:
-        fit_options = {"n_operators": n_operators, "model": model, "operator": operator}
-        first_found = find_artefacts(v, y, sample_rate_hz, **fit_options)
+        first_found = [] if whole_fit is None else find_artefacts(v, y, sample_rate_hz, fit=whole_fit,
+                                                                  **fit_options)
         second_found = [] if validate is None else find_artefacts(v2, y2, sample_rate_hz, **fit_options)
         if repair_artefacts and first_found:
             y = repaired_displacement(y, first_found)        # flat runs are left as they are
             given = (v, y, sample_rate_hz)
+            whole_fit = None
         if repair_artefacts and second_found:
             y2 = repaired_displacement(y2, second_found)
         first_times = np.ravel(time_s) if time_s is not None and np.size(time_s) == v.size else None
@@ -628,16 +638,18 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     T = 1.0 / float(sample_rate_hz)
     time = np.arange(v.size) * T if time_s is None else np.asarray(time_s, dtype=float).ravel()
     try:
-        start = start_transient(v, y, n_operators=n_operators, model=model, operator=operator)
+        start = (start_transient(v, y, **fit_options) if whole_fit is None
+                 else settling_samples(y - whole_fit.prediction_um))
     except IdentificationError as exc:
         raise DiagnosisError(f"{where}{exc}") from exc
     if start:
         v, y, time = v[start:], y[start:], time[start:]
+        whole_fit = None
     split = split_record(v, train_fraction, 0 if warmup == "auto" else int(warmup))
     description = f"MPI model with output stages identified from {source or 'a record'} by pysim diagnose"
     try:
         fitter = CandidateFitter(v, y, T, n_operators=n_operators, model=model, operator=operator, name=name,
-                                 description=description)
+                                 description=description, baseline_result=whole_fit)
     except IdentificationError as exc:
         raise DiagnosisError(f"{where}{exc}") from exc
     fitter.period_samples = split.period_samples
