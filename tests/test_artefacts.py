@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import independent_records
+import outside_class_records
 from pysim.diagnosis.artefacts import (ARTEFACT_SIGMAS, find_artefacts, record_artefacts,
                                        repaired_displacement)
 from pysim.diagnosis.diagnose import diagnose
@@ -78,6 +79,59 @@ def test_injected_spikes_and_a_jump_are_found_where_they_were_put_and_repaired(s
     untouched = np.setdiff1d(np.arange(jump + 1), spikes)
     assert np.array_equal(repaired[untouched], y[untouched])
     assert np.max(np.abs(repaired[spikes] - y[spikes])) < 5 * sigma
+
+
+@pytest.mark.parametrize("seed", [0, 2, 3, 4])
+def test_a_jump_of_ten_sigma_is_found_by_the_lines_on_either_side(seed):
+    """A jump of 10 σ: its one-sample step is lost among the noise of its neighbours' steps (the
+    test of a step alone needs about 14 σ), but straight lines through 50 samples on either side
+    differ by 10 σ at its place, 25 standard errors of that difference.  It is found at its
+    sample, measured within 2 σ (on band noise the lines through the residual around it carry
+    the misfit's own shape: 1.8 σ off on seed 3, as for a 25 σ jump there) and repaired."""
+    pair, v, y, fs = _record(seed)
+    sigma = pair.truth.noise_sigma_um
+    jump = _quiet_samples(v, 1, np.random.default_rng(seed + 100))[0]
+    hurt = y.copy()
+    hurt[jump + 1:] -= 10 * sigma
+    found = find_artefacts(v, hurt, fs)
+    assert [(a["kind"], a["sample"]) for a in found] == [("jump", jump)], (pair.train.input_kind, found)
+    assert found[0]["size_um"] == pytest.approx(-10 * sigma, abs=2 * sigma)
+    shift = (repaired_displacement(hurt, found) - y)[jump + 1:]
+    assert abs(shift[0]) < 2 * sigma
+
+
+@pytest.mark.parametrize("which", [("independent", 30, "validation"), ("independent", 42, "validation"),
+                                   ("independent", 54, "validation"), ("independent", 55, "validation"),
+                                   ("independent", 62, "test"), ("outside", 9, "train")])
+def test_where_the_actuator_moves_fast_its_own_error_is_no_jump(which):
+    """Records without an artefact whose plain fit's residual changes by 6 σ within a sample where
+    the actuator moves fast (input low-passes and creep on chirps and band noise, a slew limit, a
+    Bouc-Wen actuator at a turn of a sine sweep): lines through 20 samples on either side took
+    these for jumps of 7-10 σ.  Over 50 samples the residual's shape shows (the lines leave
+    2-19 σ RMS), and nothing is found."""
+    generator, seed, role = which
+    pair = (independent_records.make_pair(seed) if generator == "independent"
+            else outside_class_records.make_outside_pair(seed))
+    record = getattr(pair, role)
+    assert find_artefacts(record.voltage_V, record.displacement_um, record.sample_rate_hz) == []
+
+
+def test_a_delay_at_the_corners_of_a_triangle_is_no_jump():
+    """A delay of 0.3 samples on an actuator driven by a triangle with three turns: its error follows
+    the input's slope, so it flips by 30 σ at each turn, within two samples, between straight
+    stretches -- a jump's shape but the actuator's own.  Turns are no place for a jump (and three
+    are too few for the count of the actuator's own steps to rule them out)."""
+    fs = 1000.0
+    t = np.arange(4000) / fs
+    corners_t = [0.0, 1.0, 2.0, 3.0, 4.0]
+    triangle = np.interp(t, corners_t, [10.0, 90.0, 10.0, 90.0, 10.0])
+    sigma = 0.005
+    slope_um_per_sample = 0.5 * 80.0 / fs            # 0.5 µm/V on 80 V a second
+    delay_samples = 30 * sigma / (2 * slope_um_per_sample)
+    y = 0.5 * np.interp(t - delay_samples / fs, t, triangle) + np.random.default_rng(7).normal(0, sigma, t.size)
+    residual = y - 0.5 * triangle
+    assert np.max(np.abs(np.diff(residual))) > 15 * sigma      # the flips are there, as large as a jump
+    assert find_artefacts(triangle, y, fs) == []
 
 
 def test_a_frozen_reading_and_a_clipped_sensor_are_reported_as_flat_runs():
