@@ -66,7 +66,7 @@ _LINE_SAMPLES = 50
 #: residual's own, which bends the lines: where the actuator moves fast, an effect's error changes
 #: within a few samples, and 20-sample lines took such places on chirps and band noise for jumps);
 #: the samples tried are those whose one-sample step stands this many of its noise σ (σ√2) out
-#: (at 4, one of 654 generated records without an artefact showed a jump, and with lines of 20
+#: (at 4, one of 594 generated records without an artefact showed a jump, and with lines of 20
 #: samples six of 491: a step of 5.7-6.0 σ of the residual's own between lines its curvature set
 #: apart, at turns of the input and where a chirp or band noise moves the actuator fast)
 _LINE_RMS_SIGMAS, _CANDIDATE_SIGMAS = 1.5, 5.0
