@@ -165,14 +165,14 @@ def find_artefacts(voltage_V, displacement_um, sample_rate_hz: float, *, fit=Non
     residual = y - fit.prediction_um
     noise = record_noise_sigma(residual, y)
     found = record_artefacts(v, y, residual, noise, sample_rate_hz)
+    jumps = [a for a in found if a["kind"] == "jump"]
+    if not jumps:
+        return found
     near_step = _near_input_steps(v)
     # the smallest jump the lines' test finds: ARTEFACT_SIGMAS standard errors of the difference of
     # two full lines' levels at the step
     smallest = ARTEFACT_SIGMAS * noise * math.sqrt(2.0 * _edge_level_variance(_LINE_SAMPLES))
-    while True:
-        jumps = [a for a in found if a["kind"] == "jump"]
-        if not jumps:
-            return found
+    while jumps:
         steps = np.array([a["sample"] for a in jumps], dtype=int)
         for _ in range(_SIZE_REFITS):
             # the fit that saw a jump took part of it into its weights and offset: measured again on
@@ -190,8 +190,10 @@ def find_artefacts(voltage_V, displacement_um, sample_rate_hz: float, *, fit=Non
         # measured again without it
         kept = [a for a in found if a["kind"] != "jump" or abs(a["size_um"]) >= smallest]
         if len(kept) == len(found):
-            return found
+            break
         found = kept
+        jumps = [a for a in found if a["kind"] == "jump"]
+    return found
 
 
 def repaired_displacement(displacement_um, artefacts) -> np.ndarray:
@@ -223,10 +225,8 @@ def _near_input_steps(v) -> np.ndarray:
     ``_AFTER_INPUT_STEP`` after."""
     dv = np.abs(np.diff(v))
     step = dv > max(5.0 * float(np.median(dv)), 1e-3 * float(np.ptp(v)))
-    near = np.zeros(v.size, dtype=bool)
-    for k in np.flatnonzero(step):          # dv[k] is the change from sample k to k + 1
-        near[max(k - _BEFORE_INPUT_STEP, 0):k + 1 + _AFTER_INPUT_STEP + 1] = True
-    return near
+    # dv[k] is the change from sample k to k + 1: reach from k back and from k + 1 on
+    return _within_reach(v.size, np.flatnonzero(step), _BEFORE_INPUT_STEP, _AFTER_INPUT_STEP + 1)
 
 
 def _near_input_corners(v) -> np.ndarray:
@@ -236,10 +236,16 @@ def _near_input_corners(v) -> np.ndarray:
     follows the input's slope, so it flips there between two samples."""
     bend = np.abs(np.diff(v, 2))           # bend[k]: the slope's change at sample k + 1
     corner = bend > max(5.0 * float(np.median(bend)), 1e-4 * float(np.ptp(v))) if bend.size else bend
-    near = np.zeros(v.size, dtype=bool)
-    for k in np.flatnonzero(corner) + 1:
-        near[max(k - _BEFORE_INPUT_STEP, 0):k + _AFTER_INPUT_STEP + 1] = True
-    return near
+    return _within_reach(v.size, np.flatnonzero(corner) + 1, _BEFORE_INPUT_STEP, _AFTER_INPUT_STEP)
+
+
+def _within_reach(n_samples: int, samples, before: int, after: int) -> np.ndarray:
+    """Of ``n_samples``, those from ``before`` before to ``after`` after any of ``samples``."""
+    edges = np.zeros(n_samples + 1, dtype=np.int64)
+    samples = np.asarray(samples, dtype=np.int64)
+    np.add.at(edges, np.clip(samples - before, 0, n_samples), 1)
+    np.add.at(edges, np.clip(samples + after + 1, 0, n_samples), -1)
+    return np.cumsum(edges[:n_samples]) > 0
 
 
 def _edge_level_variance(n_samples: int) -> float:

@@ -595,8 +595,6 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         second_every = resampling_stride(rate2, sample_rate_hz)
         second_rate_hz = float(rate2)
         rate2 = sample_rate_hz
-    # spikes, jumps and flat runs no model of the actuator explains, found on each record's plain fit
-    # first (a jump looks like drift or creep to every candidate); the records' roles are the user's
     # the plain fit of every sample, made once: the artefacts are found on its residual, the start
     # transient is read from it, and while neither changes the record the candidates start from it
     # (None: the record cannot be fitted, which the start transient's own fit then says)
@@ -605,6 +603,8 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         whole_fit = identify(v, y, require_excitation=False, **fit_options)
     except IdentificationError:
         whole_fit = None
+    # spikes, jumps and flat runs no model of the actuator explains, found on each record's plain fit
+    # first (a jump looks like drift or creep to every candidate); the records' roles are the user's
     artefacts = []
     if not _swap_reason:
         first_found = [] if whole_fit is None else find_artefacts(v, y, sample_rate_hz, fit=whole_fit,
