@@ -27,7 +27,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from pysim.core.fileio import staged_directory
-from pysim.diagnosis.diagnose import Diagnosis
+from pysim.diagnosis.result import Diagnosis
 from pysim.diagnosis.residuals import binned_mean, cross_correlation, spectrum, time_since_change
 from pysim.diagnosis.rules import MIN_GAIN_PCT, NEAR_NOISE_BATCHES, NEAR_NOISE_FRACTION, NEAR_NOISE_T, NOISE_FRACTION
 
