@@ -881,7 +881,9 @@ def test_a_first_record_that_misses_part_of_the_range_hands_the_fit_to_the_secon
     extrapolates over 16 % of the range, and the second record's scoring leaves that part out,
     so nothing tested it: the lag's model predicted the third record (never given, full range)
     at 4x the noise σ.  The record that covers both is fitted now, and the lag is named there; its
-    model predicts the third record inside the noise."""
+    model predicts the third record inside the noise.  A spike put in the first record's first
+    hold is repaired and reported, though the diagnosis handed over is the one fitted on the second
+    record (it had been left out of the report on this path alone)."""
     import independent_records
 
     from pysim.diagnosis.folds import range_beyond_first
@@ -902,11 +904,16 @@ def test_a_first_record_that_misses_part_of_the_range_hands_the_fit_to_the_secon
     played = independent_records.respond(
         pair, np.concatenate([history, held([lo + 0.5 * span, top, bottom, lo + 0.7 * span, lo + 0.35 * span], 0.6),
                               sines]), noise_seed=5)
-    v1, y1 = played.voltage_V[history.size:], played.displacement_um[history.size:]
+    v1, y1 = played.voltage_V[history.size:], played.displacement_um[history.size:].copy()
+    # a spike in the first record's first hold: repaired, and reported though the second record is fitted
+    spike_at = 3000
+    y1[spike_at] += 0.05 * np.ptp(y1)
     other = pair.validation
     assert range_beyond_first(v1, other.voltage_V) > 0.15
     d = diagnose(v1, y1, fs, validate=(other.voltage_V, other.displacement_um, fs))
     assert d.records_swapped and "would extrapolate over 16 % of that range" in d.swap_reason, d.why
+    assert [(a["kind"], a["record"], a["sample"], a["repaired"]) for a in d.artefacts] == [
+        ("spike", "first", spike_at, True)], d.why
     assert "rate_dependence" in d.causes, d.why
     assert _third_record_rms(pair, d.extended.model) < pair.truth.noise_sigma_um, d.why
 

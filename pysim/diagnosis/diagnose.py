@@ -637,7 +637,7 @@ class _DiagnosisRun:
                                     f"{v2.min():.4g} to {v2.max():.4g} V that {second} covers (models fitted on "
                                     f"{first} would extrapolate over {100 * beyond:.0f} % of that range)")
             if swapped is not None and swapped.cause in EFFECTS:
-                return swapped
+                return self._reported(swapped)
         return None
 
     def _cross_validate(self):
