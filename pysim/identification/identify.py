@@ -757,32 +757,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     >>> bool(fit.errors["max_error_pct"] < 1e-6), fit.warmup_samples
     (True, 0)
     """
-    if model not in ("mpi", "cpi"):
-        raise IdentificationError(f"model must be 'mpi' or 'cpi', got {model!r}")
-    if not (warmup == "auto" or (isinstance(warmup, (int, np.integer)) and warmup >= 0)):
-        raise IdentificationError(f"warmup must be 'auto' or a whole number of samples >= 0, got {warmup!r}")
-    v = np.asarray(voltage_V, dtype=float).ravel()
-    y = np.asarray(displacement_um, dtype=float).ravel()
-    if v.shape != y.shape:
-        raise IdentificationError(f"{v.size} voltage samples but {y.size} displacement samples")
-    if v.size == 0:
-        raise IdentificationError("the record is empty")
-    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(y))):
-        raise IdentificationError("the record holds NaN or infinite values")
-    window = fit_slice or slice(0, v.size)
-    first, stop, _ = window.indices(v.size)
-    start = 0 if warmup == "auto" else int(warmup)
-    first = max(first, start)
-    if stop - first < 2:
-        raise IdentificationError(f"{max(stop - first, 0)} samples to fit (after a warm-up of {start})")
-    rows = slice(first, stop)
-    if fit_rows is not None:
-        rows = np.asarray(fit_rows, dtype=int).ravel()
-        if rows.size > 1 and not np.all(rows[1:] > rows[:-1]):     # the folds pass sorted rows: no sort
-            rows = np.unique(rows)
-        if rows.size < 2 or rows[0] < 0 or rows[-1] >= v.size:
-            raise IdentificationError(f"fit_rows must hold at least 2 sample indices in 0..{v.size - 1}")
-        first, stop = int(rows[0]), int(rows[-1]) + 1
+    v, y, rows, first, stop, start = _checked_rows(voltage_V, displacement_um, model, warmup, fit_slice, fit_rows)
     lo, hi = float(v[rows].min()), float(v[rows].max())
     if not hi > lo:
         raise IdentificationError(f"the voltage is constant over samples {first}..{stop - 1}: nothing to identify")
@@ -794,15 +769,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     r = (eq13_thresholds(n_operators, hi - lo, operator) if thresholds_V is None
          else np.asarray(thresholds_V, dtype=float))
     cubic = model == "mpi"
-    extras = dict(extra_regressors or {})
-    for key, column in extras.items():
-        column = np.asarray(column, dtype=float).ravel()
-        if column.shape != v.shape:
-            raise IdentificationError(f"extra regressor {key!r} has {column.size} samples, not {v.size}")
-        extras[key] = column
-    unknown = set(extra_nonnegative) - set(extras)
-    if unknown:
-        raise IdentificationError(f"extra_nonnegative names no extra regressor: {sorted(unknown)}")
+    extras = _checked_extras(extra_regressors, extra_nonnegative, v.size)
     n_params_hint = (2 if cubic else 1) + int(np.count_nonzero(r)) + 1 + len(extras)
     if n_rows < n_params_hint + 1:
         raise IdentificationError(
@@ -839,150 +806,282 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         # only the fitted rows identify nothing (a training part of a record that does): the model is
         # to predict rows these do not excite, so no operator gets a weight here (a1 u³ + a2 u + offset)
         anchor = np.full(r.size, -1)
-    n_lin = 2 if cubic else 1
-
-    def layout():
-        """Column layout: [u^3] u  group_1 … group_m  1  extras."""
-        own = [i for i in range(r.size) if anchor[i] == i]
-        not_identifiable = tuple(int(i) for i in range(r.size) if r[i] > 0 and anchor[i] != i)
-        column_of = {i: n_lin + j for j, i in enumerate(own)}
-        n_hyst = n_lin + len(own) + 1
-        names = (["a1 u³"] if cubic else []) + ["a2 u"] + [f"operator {i + 1} (r = {r[i]:.4g} V)" for i in own] \
-            + ["offset"] + [f"extra {k!r}" for k in extras]
-        return own, not_identifiable, column_of, n_hyst, names
-
-    own, not_identifiable, column_of, n_hyst, names = layout()
+    columns = _Columns(r, cubic, anchor, factor, extras)
 
     # Only the window's rows are fitted; the state matters only where an
     # operator has not yet forgotten it (low < high): the "transient" rows.
     low_w, high_w, y_w, u_w = low[rows], high[rows], y[rows], u[rows]
-    remembers = np.ascontiguousarray((high_w - low_w > 0).T)      # operator × row, one row per operator
-    transient_rows = np.flatnonzero(np.any(remembers, axis=0))
-    moving = [np.flatnonzero(row) for row in remembers]
+    columns.tie_dependent(state0, low_w, high_w, u_w, static_curve)
+    cubic, n_hyst = columns.cubic, columns.n_hyst
 
-    def design(state, lo_b, hi_b, uu):
-        ops = np.minimum(np.maximum(state, lo_b), hi_b)
-        A = np.empty((uu.size, n_hyst))
-        if cubic:
-            A[:, 0] = uu**3
-        A[:, n_lin - 1] = uu
-        if own:                                  # their columns are consecutive, in order
-            A[:, n_lin:n_lin + len(own)] = ops[:, own]
-        for i in not_identifiable:
-            if anchor[i] >= 0:
-                A[:, column_of[anchor[i]]] += factor[i] * ops[:, i]
-        A[:, n_hyst - 1] = 1.0
-        return A
-
-    # Operators whose columns the fitted samples make linearly dependent on the
-    # others (few distinct input levels, as in steps) are tied to their lower
-    # neighbour as well, the widest first, until the columns are independent.
-    spacing = np.diff(np.concatenate(([0.0], r)))
-    for _ in range(r.size + 1):
-        probe_matrix = design(state0, low_w, high_w, u_w)
-        norms = np.linalg.norm(probe_matrix, axis=0)
-        norms[norms == 0] = 1.0
-        # only R and the pivots: forming Q would cost more than the whole fit
-        R_probe, pivots = scipy.linalg.qr(probe_matrix / norms, mode="r", pivoting=True)
-        diagonal = np.abs(np.diag(R_probe))
-        rank = int(np.count_nonzero(diagonal > RANK_TOLERANCE * diagonal[0]))
-        dependent_ops = [i for i in own if column_of[i] in set(pivots[rank:].tolist())]
-        if rank < n_hyst and not dependent_ops and static_curve and own:
-            # the pivoting named another column (the offset, against an operator the input never
-            # reaches): the widest operator goes first
-            dependent_ops = [max(own, key=lambda j: r[j])]
-        if rank < n_hyst and not dependent_ops and own:
-            # the pivoting named the offset or u, but operators are in the dependence (two operators
-            # whose states follow the input in lockstep over these rows, each a shifted copy of it):
-            # they are read off the null vector, and the widest of them goes first
-            _, _, vt = np.linalg.svd(R_probe[:n_hyst])
-            null = np.zeros(n_hyst)
-            null[pivots] = vt[-1]
-            dependent_ops = [i for i in own if abs(null[column_of[i]]) > 1e-6 * float(np.max(np.abs(null)))]
-        if rank < n_hyst and not dependent_ops and cubic:
-            # u³ is a combination of u and the offset: the samples take two input levels (steps
-            # between two voltages), which show no loop curvature; the model is fitted without it
-            cubic, n_lin = False, 1
-            own, not_identifiable, column_of, n_hyst, names = layout()
-            continue
-        if rank == n_hyst or not dependent_ops:
-            break
-        i = max(dependent_ops, key=lambda j: r[j])
-        lower = [j for j in own if j < i]
-        anchor[i] = lower[-1] if lower else -1
-        factor[i] = spacing[i] / spacing[anchor[i]] if lower and spacing[anchor[i]] > 0 else 1.0
-        for k in range(r.size):
-            if k != i and anchor[k] == i:        # operators tied to i follow it
-                anchor[k], factor[k] = anchor[i], factor[k] * factor[i]
-        own, not_identifiable, column_of, n_hyst, names = layout()
-
-    if unexcited_message is None and np.any(r > 0) and not any(r[i] > 0 for i in own):
+    if unexcited_message is None and np.any(r > 0) and not any(r[i] > 0 for i in columns.own):
         unexcited_message = (f"the fitted samples take only {np.unique(u_w).size} distinct input levels: no "
                              "operator can be told apart from a straight line; record a rise and a fall through "
                              "many levels")
         if require_excitation:
             raise IdentificationError(unexcited_message)
-    effective_columns = [column_of.get(int(anchor[i]), -1) if anchor[i] >= 0 else -1 for i in range(r.size)]
+    effective_columns = [columns.column_of.get(int(anchor[i]), -1) if anchor[i] >= 0 else -1
+                         for i in range(r.size)]
     n_params = n_hyst + len(extras)
     mean_gain = float(np.ptp(y[rows])) / (hi - lo)
     G, h = _constraint_rows(r, operator, input_offset, (lo, hi), cubic, n_params, effective_columns, factor,
                             min_slope_fraction * mean_gain if min_slope_fraction >= 0 else None,
                             [n_hyst + j for j, key in enumerate(extras) if key in set(extra_nonnegative)])
     extra_matrix = np.column_stack(list(extras.values())) if extras else np.zeros((v.size, 0))
-    extra_w = extra_matrix[rows]
+    window = _WindowFit(columns, low_w, high_w, y_w, u_w, extra_matrix[rows], G, h, (low[0], high[0]))
 
-    # Rows outside the transient do not depend on the state: the first matrix
-    # built is kept, and for every further state only its transient rows are
-    # rewritten (a fit without state estimation builds one matrix, as before).
-    window_base = []
+    warm = None if start_state is None else np.clip(np.asarray(start_state, dtype=float).ravel(), low[0], high[0])
+    if warm is not None and warm.size != r.size:
+        raise IdentificationError(f"start_state has {warm.size} entries, not {r.size}")
+    if estimate and window.transient_rows.size and warm is not None and column_transform is not None:
+        state0 = warm         # the estimate is refined through the transform below
+    elif estimate and window.transient_rows.size:
+        if warm is not None:
+            starts = [warm, demagnetised]
+        else:
+            starts = [demagnetised, low[0].copy(), high[0].copy()] + [
+                np.clip(s, low[0], high[0])
+                for s in short_history_states(np.linspace(lo, hi, 9) - input_offset, r, operator)]
+        state0, theta, active, condition, sse = window.estimated_state(starts, demagnetised,
+                                                                       from_settled=warm is None)
+    else:
+        _, theta, active, condition, sse = window.solve(state0)
+    if column_transform is None:
+        A = np.column_stack([columns.design(state0, low, high, u), extra_matrix])
+    else:
+        state0, A, theta, active, condition, sse = _fit_through_transform(
+            columns, column_transform, low, high, u, y, rows, extra_matrix, G, h,
+            [state0, demagnetised] if estimate else [state0],
+            refine=bool(estimate and window.transient_rows.size))
 
-    def window_design(state):
-        """The fitted rows' design matrix (hysteresis columns, then extras) for ``state``."""
-        if not window_base:
-            window_base.append(np.column_stack([design(state, low_w, high_w, u_w), extra_w]))
-            return window_base[0]
-        A = window_base[0].copy()
-        if transient_rows.size:
-            k = transient_rows
-            A[k, :n_hyst] = design(state, low_w[k], high_w[k], u_w[k])
+    a1 = float(theta[0]) if cubic else 0.0
+    a2 = float(theta[columns.n_lin - 1])
+    weights = columns.weights_of(theta)
+    offset = float(theta[n_hyst - 1])
+    identified = HysteresisModel(
+        a1=a1, a2=a2, thresholds_V=tuple(r), weights_um_per_V=tuple(weights), operator=operator,
+        input_offset_V=input_offset, output_offset_um=offset, voltage_range_V=(lo, hi),
+        name=name or f"identified_{model}", description=description)
+    extra_coefficients = {key: float(theta[n_hyst + j]) for j, key in enumerate(extras)}
+    prediction = A @ theta
+    not_identifiable = columns.not_identifiable
+    merged = {int(i): int(anchor[i]) for i in not_identifiable if anchor[i] >= 0}
+    if static_curve:
+        not_identifiable = tuple(int(i) for i in range(r.size) if r[i] > 0)
+    return IdentificationResult(
+        model=identified, warmup_samples=start, prediction_um=prediction,
+        fit_slice=rows if isinstance(rows, slice) else slice(first, stop),
+        errors=error_measures(y[rows], prediction[rows]), constraints_active=active,
+        extra_coefficients=extra_coefficients, objective=sse, initial_state=np.asarray(state0, dtype=float),
+        initial_state_estimated=bool(estimate), not_identifiable_operators=not_identifiable,
+        merged_into=merged, operator_travel_V=travel, condition_number=condition,
+        unidentified_reason=unexcited_message or "")
+
+
+def _checked_rows(voltage_V, displacement_um, model, warmup, fit_slice, fit_rows) -> tuple:
+    """``(v, y, rows, first, stop, warmup_samples)``: the record checked, and the samples to fit
+    (a slice, or sorted indices for ``fit_rows``) with the first and one past the last of them."""
+    if model not in ("mpi", "cpi"):
+        raise IdentificationError(f"model must be 'mpi' or 'cpi', got {model!r}")
+    if not (warmup == "auto" or (isinstance(warmup, (int, np.integer)) and warmup >= 0)):
+        raise IdentificationError(f"warmup must be 'auto' or a whole number of samples >= 0, got {warmup!r}")
+    v = np.asarray(voltage_V, dtype=float).ravel()
+    y = np.asarray(displacement_um, dtype=float).ravel()
+    if v.shape != y.shape:
+        raise IdentificationError(f"{v.size} voltage samples but {y.size} displacement samples")
+    if v.size == 0:
+        raise IdentificationError("the record is empty")
+    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(y))):
+        raise IdentificationError("the record holds NaN or infinite values")
+    window = fit_slice or slice(0, v.size)
+    first, stop, _ = window.indices(v.size)
+    start = 0 if warmup == "auto" else int(warmup)
+    first = max(first, start)
+    if stop - first < 2:
+        raise IdentificationError(f"{max(stop - first, 0)} samples to fit (after a warm-up of {start})")
+    rows = slice(first, stop)
+    if fit_rows is not None:
+        rows = np.asarray(fit_rows, dtype=int).ravel()
+        if rows.size > 1 and not np.all(rows[1:] > rows[:-1]):     # the folds pass sorted rows: no sort
+            rows = np.unique(rows)
+        if rows.size < 2 or rows[0] < 0 or rows[-1] >= v.size:
+            raise IdentificationError(f"fit_rows must hold at least 2 sample indices in 0..{v.size - 1}")
+        first, stop = int(rows[0]), int(rows[-1]) + 1
+    return v, y, rows, first, stop, start
+
+
+def _checked_extras(extra_regressors, extra_nonnegative, n_samples: int) -> dict:
+    """The extra regressors as float columns of the record's length, checked with the names of the
+    non-negative ones."""
+    extras = dict(extra_regressors or {})
+    for key, column in extras.items():
+        column = np.asarray(column, dtype=float).ravel()
+        if column.shape != (n_samples,):
+            raise IdentificationError(f"extra regressor {key!r} has {column.size} samples, not {n_samples}")
+        extras[key] = column
+    unknown = set(extra_nonnegative) - set(extras)
+    if unknown:
+        raise IdentificationError(f"extra_nonnegative names no extra regressor: {sorted(unknown)}")
+    return extras
+
+
+class _Columns:
+    """The hysteresis part's columns of the design matrix: ``[u³] u``, one column per operator with a
+    weight of its own, the offset (the extras follow them).  An operator tied to a lower neighbour
+    (``anchor[i]``, with the ratio ``factor[i]`` of their weights) adds its output to that column;
+    one tied to nothing (anchor -1) has no weight.  Ties change while dependent operators are found
+    (:meth:`tie_dependent`), and the layout with them."""
+
+    def __init__(self, thresholds, cubic: bool, anchor, factor, extras: dict):
+        self.r, self.cubic, self.anchor, self.factor = thresholds, cubic, anchor, factor
+        self.extra_names = list(extras)
+        self._lay_out()
+
+    def _lay_out(self):
+        r, anchor = self.r, self.anchor
+        self.n_lin = 2 if self.cubic else 1
+        self.own = [i for i in range(r.size) if anchor[i] == i]
+        self.not_identifiable = tuple(int(i) for i in range(r.size) if r[i] > 0 and anchor[i] != i)
+        self.column_of = {i: self.n_lin + j for j, i in enumerate(self.own)}
+        self.n_hyst = self.n_lin + len(self.own) + 1
+        self.names = ((["a1 u³"] if self.cubic else []) + ["a2 u"]
+                      + [f"operator {i + 1} (r = {r[i]:.4g} V)" for i in self.own]
+                      + ["offset"] + [f"extra {k!r}" for k in self.extra_names])
+
+    def design(self, state, lo_b, hi_b, uu) -> np.ndarray:
+        """The hysteresis columns for the rows whose operator bounds are ``lo_b``, ``hi_b`` (rows ×
+        operators) and shifted input ``uu``, from the operator ``state`` before them."""
+        n_lin, n_hyst, own = self.n_lin, self.n_hyst, self.own
+        ops = np.minimum(np.maximum(state, lo_b), hi_b)
+        A = np.empty((uu.size, n_hyst))
+        if self.cubic:
+            A[:, 0] = uu**3
+        A[:, n_lin - 1] = uu
+        if own:                                  # their columns are consecutive, in order
+            A[:, n_lin:n_lin + len(own)] = ops[:, own]
+        for i in self.not_identifiable:
+            if self.anchor[i] >= 0:
+                A[:, self.column_of[self.anchor[i]]] += self.factor[i] * ops[:, i]
+        A[:, n_hyst - 1] = 1.0
         return A
 
-    def solve(state):
-        A = window_design(state)
-        theta, active, condition = solve_lsi(A, y_w, G, h, names)
-        e = y_w - A @ theta
+    def weights_of(self, theta) -> np.ndarray:
+        """Every operator's weight (µm/V) from the fitted coefficients."""
+        return _operator_weights(theta, self.anchor, self.factor, self.column_of)
+
+    def tie_dependent(self, state, low_w, high_w, u_w, static_curve: bool) -> None:
+        """Tie operators whose columns the fitted rows make linearly dependent on the others (few
+        distinct input levels, as in steps) to their lower neighbour, the widest first, until the
+        columns are independent; drop u³ when the rows show only two input levels."""
+        r, anchor, factor = self.r, self.anchor, self.factor
+        spacing = np.diff(np.concatenate(([0.0], r)))
+        for _ in range(r.size + 1):
+            own, n_hyst, column_of = self.own, self.n_hyst, self.column_of
+            probe_matrix = self.design(state, low_w, high_w, u_w)
+            norms = np.linalg.norm(probe_matrix, axis=0)
+            norms[norms == 0] = 1.0
+            # only R and the pivots: forming Q would cost more than the whole fit
+            R_probe, pivots = scipy.linalg.qr(probe_matrix / norms, mode="r", pivoting=True)
+            diagonal = np.abs(np.diag(R_probe))
+            rank = int(np.count_nonzero(diagonal > RANK_TOLERANCE * diagonal[0]))
+            dependent_ops = [i for i in own if column_of[i] in set(pivots[rank:].tolist())]
+            if rank < n_hyst and not dependent_ops and static_curve and own:
+                # the pivoting named another column (the offset, against an operator the input never
+                # reaches): the widest operator goes first
+                dependent_ops = [max(own, key=lambda j: r[j])]
+            if rank < n_hyst and not dependent_ops and own:
+                # the pivoting named the offset or u, but operators are in the dependence (two operators
+                # whose states follow the input in lockstep over these rows, each a shifted copy of it):
+                # they are read off the null vector, and the widest of them goes first
+                _, _, vt = np.linalg.svd(R_probe[:n_hyst])
+                null = np.zeros(n_hyst)
+                null[pivots] = vt[-1]
+                dependent_ops = [i for i in own if abs(null[column_of[i]]) > 1e-6 * float(np.max(np.abs(null)))]
+            if rank < n_hyst and not dependent_ops and self.cubic:
+                # u³ is a combination of u and the offset: the samples take two input levels (steps
+                # between two voltages), which show no loop curvature; the model is fitted without it
+                self.cubic = False
+                self._lay_out()
+                continue
+            if rank == n_hyst or not dependent_ops:
+                break
+            i = max(dependent_ops, key=lambda j: r[j])
+            lower = [j for j in own if j < i]
+            anchor[i] = lower[-1] if lower else -1
+            factor[i] = spacing[i] / spacing[anchor[i]] if lower and spacing[anchor[i]] > 0 else 1.0
+            for k in range(r.size):
+                if k != i and anchor[k] == i:        # operators tied to i follow it
+                    anchor[k], factor[k] = anchor[i], factor[k] * factor[i]
+            self._lay_out()
+
+
+class _WindowFit:
+    """The constrained least-squares fit of the fitted rows for any operator state before them, and
+    the estimation of that state.
+
+    The state matters only where an operator has not yet forgotten it (low < high): the
+    "transient" rows.  Rows outside them do not depend on the state: the first matrix built is
+    kept, and for every further state only its transient rows are rewritten (a fit without state
+    estimation builds one matrix).
+    """
+
+    def __init__(self, columns: _Columns, low_w, high_w, y_w, u_w, extra_w, G, h, state_bounds):
+        self.columns = columns
+        self.low_w, self.high_w, self.y_w, self.u_w, self.extra_w = low_w, high_w, y_w, u_w, extra_w
+        self.G, self.h = G, h
+        self.state_low, self.state_high = state_bounds          # the admissible states before the first row
+        remembers = np.ascontiguousarray((high_w - low_w > 0).T)      # operator × row, one row per operator
+        self.transient_rows = np.flatnonzero(np.any(remembers, axis=0))
+        self.moving = [np.flatnonzero(row) for row in remembers]
+        self._base = None
+
+    def design(self, state) -> np.ndarray:
+        """The fitted rows' design matrix (hysteresis columns, then extras) for ``state``."""
+        design = self.columns.design
+        if self._base is None:
+            self._base = np.column_stack([design(state, self.low_w, self.high_w, self.u_w), self.extra_w])
+            return self._base
+        A = self._base.copy()
+        if self.transient_rows.size:
+            k = self.transient_rows
+            A[k, :self.columns.n_hyst] = design(state, self.low_w[k], self.high_w[k], self.u_w[k])
+        return A
+
+    def solve(self, state) -> tuple:
+        """``(A, θ, active constraints, condition number, squared error)`` for ``state``."""
+        A = self.design(state)
+        theta, active, condition = solve_lsi(A, self.y_w, self.G, self.h, self.columns.names)
+        e = self.y_w - A @ theta
         return A, theta, active, condition, float(e @ e)
 
-    def weights_of(theta):
-        return _operator_weights(theta, anchor, factor, column_of)
-
-    def refine_state(state, A, theta):
+    def refine_state(self, state, A, theta):
         """Exact coordinate steps over every operator's state, weights fixed."""
         state = state.copy()
-        residual = y_w - A @ theta
-        b = weights_of(theta)
-        for i in range(r.size):
-            k = moving[i]
+        residual = self.y_w - A @ theta
+        b = self.columns.weights_of(theta)
+        for i in range(state.size):
+            k = self.moving[i]
             if b[i] == 0.0 or k.size == 0:
                 continue
-            L, U = low_w[k, i], high_w[k, i]
+            L, U = self.low_w[k, i], self.high_w[k, i]
             current = np.minimum(np.maximum(state[i], L), U)
             target = residual[k] / b[i] + current
-            new = best_clamped_state(target, L, U, low[0, i], high[0, i])
+            new = best_clamped_state(target, L, U, self.state_low[i], self.state_high[i])
             residual[k] -= b[i] * (np.minimum(np.maximum(new, L), U) - current)
             state[i] = new
         return state
 
-    def polish_state(state, theta):
+    def polish_state(self, state, theta):
         """All states at once for fixed weights (trust region on the
         piecewise-linear residual of the transient rows)."""
-        b = weights_of(theta)
-        k = transient_rows
+        b = self.columns.weights_of(theta)
+        k = self.transient_rows
         if k.size == 0 or not np.any(b):
             return state
-        lt, ht = low_w[k], high_w[k]
-        rest = y_w[k] - np.column_stack([design(np.zeros(r.size), lt, ht, u_w[k]), extra_w[k]]) @ theta
-        rest = rest + (np.minimum(np.maximum(np.zeros(r.size), lt), ht) @ b)
+        lt, ht = self.low_w[k], self.high_w[k]
+        zero = np.zeros(state.size)
+        rest = self.y_w[k] - np.column_stack([self.columns.design(zero, lt, ht, self.u_w[k]), self.extra_w[k]]) @ theta
+        rest = rest + (np.minimum(np.maximum(zero, lt), ht) @ b)
 
         def residual(s):
             return np.minimum(np.maximum(s, lt), ht) @ b - rest
@@ -990,7 +1089,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         def jacobian(s):
             return ((lt < s) & (s < ht)) * b
 
-        lower, upper = low[0], high[0]
+        lower, upper = self.state_low, self.state_high
         s = np.clip(state, lower, upper)
         f = residual(s)
         cost = float(f @ f)
@@ -1022,13 +1121,11 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
                 break
         return s
 
-    def history_states():
-        return [np.clip(s, low[0], high[0])
-                for s in short_history_states(np.linspace(lo, hi, 9) - input_offset, r, operator)]
-
-    def screen(states):
+    def screen(self, states) -> np.ndarray:
         """Unconstrained least-squares error of each state (Gram matrices:
         only the transient rows change from one state to the next)."""
+        design, transient_rows = self.columns.design, self.transient_rows
+        low_w, high_w, u_w, y_w, extra_w = self.low_w, self.high_w, self.u_w, self.y_w, self.extra_w
         fixed = np.setdiff1d(np.arange(u_w.size), transient_rows)
         A0 = np.column_stack([design(states[0], low_w[fixed], high_w[fixed], u_w[fixed]), extra_w[fixed]])
         gram0, moment0, yy0 = A0.T @ A0, A0.T @ y_w[fixed], float(y_w[fixed] @ y_w[fixed])
@@ -1047,31 +1144,27 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
                 scores.append(np.inf)
         return np.array(scores)
 
-    warm = None if start_state is None else np.clip(np.asarray(start_state, dtype=float).ravel(), low[0], high[0])
-    if warm is not None and warm.size != r.size:
-        raise IdentificationError(f"start_state has {warm.size} entries, not {r.size}")
-    if estimate and transient_rows.size and warm is not None and column_transform is not None:
-        state0 = warm         # the estimate is refined through the transform below
-    elif estimate and transient_rows.size:
-        if warm is not None:
-            candidates = [warm, demagnetised]
-        else:
-            candidates = [demagnetised, low[0].copy(), high[0].copy()] + history_states()
-        scores = screen(candidates)
+    def estimated_state(self, candidates, demagnetised, from_settled: bool) -> tuple:
+        """``(state, θ, active constraints, condition number, squared error)`` of the best fit from
+        the best-screened ``candidates`` (and, with ``from_settled``, the state that fits the
+        transient best for the weights of the rows whose state the input has fixed), each
+        improved by alternating state steps and fits."""
+        scores = self.screen(candidates)
         order = [int(j) for j in np.argsort(scores)[:3]]
         starts = [(candidates[j], None) for j in dict.fromkeys(order[:2] + [0])]
-        settled = np.setdiff1d(np.arange(u_w.size), transient_rows)
-        if warm is None and settled.size >= max(3 * n_params, u_w.size // 10):
+        settled = np.setdiff1d(np.arange(self.u_w.size), self.transient_rows)
+        n_params = self.columns.n_hyst + self.extra_w.shape[1]
+        if from_settled and settled.size >= max(3 * n_params, self.u_w.size // 10):
             # weights from the samples whose state the input has fixed, then
             # the states that fit the transient best for those weights
-            A_s = np.column_stack([design(demagnetised, low_w[settled], high_w[settled], u_w[settled]),
-                                   extra_w[settled]])
+            A_s = np.column_stack([self.columns.design(demagnetised, self.low_w[settled], self.high_w[settled],
+                                                       self.u_w[settled]), self.extra_w[settled]])
             try:
-                theta_s = solve_lsi(A_s, y_w[settled], G, h, names)[0]
+                theta_s = solve_lsi(A_s, self.y_w[settled], self.G, self.h, self.columns.names)[0]
                 state = demagnetised.copy()
                 for _ in range(3):
-                    state = refine_state(state, window_design(state), theta_s)
-                state = polish_state(state, theta_s)
+                    state = self.refine_state(state, self.design(state), theta_s)
+                state = self.polish_state(state, theta_s)
                 starts.insert(0, (state, theta_s))
             except IdentificationError:
                 pass
@@ -1081,14 +1174,14 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
             # a start (or a step) that leaves an operator constant makes its column
             # collinear with the offset: that start or step is dropped
             try:
-                A, theta, active, condition, sse = solve(state)
+                A, theta, active, condition, sse = self.solve(state)
             except IdentificationError as exc:
                 failure = exc
                 continue
             for _ in range(STATE_ITERATIONS):
-                candidate = polish_state(refine_state(state, A, theta), theta)
+                candidate = self.polish_state(self.refine_state(state, A, theta), theta)
                 try:
-                    A2, theta2, active2, condition2, sse2 = solve(candidate)
+                    A2, theta2, active2, condition2, sse2 = self.solve(candidate)
                 except IdentificationError:
                     break
                 if sse2 < sse * (1.0 - 1e-4):
@@ -1099,66 +1192,46 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
                 best = (state, A, theta, active, condition, sse)
         if best is None:
             raise failure
-        state0, _, theta, active, condition, sse = best
-    else:
-        _, theta, active, condition, sse = solve(state0)
-    A = np.column_stack([design(state0, low, high, u), extra_matrix])
+        state, _, theta, active, condition, sse = best
+        return state, theta, active, condition, sse
+
+
+def _fit_through_transform(columns: _Columns, column_transform, low, high, u, y, rows, extra_matrix, G, h,
+                           states, refine: bool) -> tuple:
+    """``(state, A, θ, active constraints, condition number, squared error)`` of the fit whose
+    hysteresis columns pass through ``column_transform``: the best of ``states``, and with
+    ``refine`` its state refined through the stage for fixed weights, a few rounds."""
+    names = columns.names
 
     def transformed(state):
-        A_t = np.column_stack([np.asarray(column_transform(design(state, low, high, u)), dtype=float),
+        A_t = np.column_stack([np.asarray(column_transform(columns.design(state, low, high, u)), dtype=float),
                                extra_matrix])
         theta_t, active_t, condition_t = solve_lsi(A_t[rows], y[rows], G, h, names)
         e = y[rows] - A_t[rows] @ theta_t
         return state, A_t, theta_t, active_t, condition_t, float(e @ e)
 
-    def refine_through_transform(state, A_t, theta):
-        """Each operator's state for fixed weights, through the stage (see
-        :func:`refine_state_through_stage`)."""
-        return refine_state_through_stage(state, (y - A_t @ theta)[remembered], low, high, weights_of(theta),
-                                          column_transform, remembered)
-
-    if column_transform is not None:
-        # the fitted samples up to the last that still remembers the state (the stage is causal: the
-        # refinement needs no sample after them)
-        remembers = np.flatnonzero(np.any(high > low, axis=1))
-        remembered = np.arange(v.size)[rows]
-        remembered = remembered[remembered <= (remembers[-1] if remembers.size else -1)]
-        # the state estimated without the stage competes with the demagnetised one, and the better
-        # one is refined through the stage
-        best = min((transformed(state) for state in ([state0, demagnetised] if estimate else [state0])),
-                   key=lambda fit: fit[-1])
-        if estimate and transient_rows.size:
-            for _ in range(TRANSFORM_STATE_ROUNDS):
-                try:
-                    candidate = transformed(refine_through_transform(best[0], best[1], best[2]))
-                except IdentificationError:
-                    break
-                if not candidate[-1] < best[-1] * (1.0 - 1e-4):
-                    break
-                best = candidate
-        state0, A, theta, active, condition, sse = best
-
-    a1 = float(theta[0]) if cubic else 0.0
-    a2 = float(theta[n_lin - 1])
-    weights = weights_of(theta)
-    offset = float(theta[n_hyst - 1])
-    identified = HysteresisModel(
-        a1=a1, a2=a2, thresholds_V=tuple(r), weights_um_per_V=tuple(weights), operator=operator,
-        input_offset_V=input_offset, output_offset_um=offset, voltage_range_V=(lo, hi),
-        name=name or f"identified_{model}", description=description)
-    extra_coefficients = {key: float(theta[n_hyst + j]) for j, key in enumerate(extras)}
-    prediction = A @ theta
-    merged = {int(i): int(anchor[i]) for i in not_identifiable if anchor[i] >= 0}
-    if static_curve:
-        not_identifiable = tuple(int(i) for i in range(r.size) if r[i] > 0)
-    return IdentificationResult(
-        model=identified, warmup_samples=start, prediction_um=prediction,
-        fit_slice=rows if isinstance(rows, slice) else slice(first, stop),
-        errors=error_measures(y[rows], prediction[rows]), constraints_active=active,
-        extra_coefficients=extra_coefficients, objective=sse, initial_state=np.asarray(state0, dtype=float),
-        initial_state_estimated=bool(estimate), not_identifiable_operators=not_identifiable,
-        merged_into=merged, operator_travel_V=travel, condition_number=condition,
-        unidentified_reason=unexcited_message or "")
+    # the fitted samples up to the last that still remembers the state (the stage is causal: the
+    # refinement needs no sample after them)
+    remembers = np.flatnonzero(np.any(high > low, axis=1))
+    remembered = np.arange(u.size)[rows]
+    remembered = remembered[remembered <= (remembers[-1] if remembers.size else -1)]
+    # the state estimated without the stage competes with the demagnetised one, and the better
+    # one is refined through the stage
+    best = min((transformed(state) for state in states), key=lambda fit: fit[-1])
+    if refine:
+        for _ in range(TRANSFORM_STATE_ROUNDS):
+            try:
+                # each operator's state for fixed weights, through the stage
+                # (see :func:`refine_state_through_stage`)
+                state = refine_state_through_stage(best[0], (y - best[1] @ best[2])[remembered], low, high,
+                                                   columns.weights_of(best[2]), column_transform, remembered)
+                candidate = transformed(state)
+            except IdentificationError:
+                break
+            if not candidate[-1] < best[-1] * (1.0 - 1e-4):
+                break
+            best = candidate
+    return best
 
 
 def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_states, voltage_range_V,
