@@ -12,9 +12,7 @@ the plain fit's residual (measured − simulated displacement):
 ``jump``
     A step of the residual between two samples that stays, while the input
     is steady (no input step in the 20 samples before and 5 after, so a
-    delayed or lagging response to an input step is never one; a step is a
-    change five times the input's usual one, over the record and over the
-    ten changes on either side, so fast sines are not steps): the sensor's
+    delayed or lagging response to an input step is never one): the sensor's
     zero, its mount or the stage moved.  Either the step itself stands out
     with the samples around it quiet, or, away from the input's corners too,
     straight lines through the 50 samples on either side, each fitting them
@@ -45,7 +43,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.ndimage
 
 from pysim.diagnosis.residuals import record_noise_sigma
 from pysim.identification.errors import IdentificationError
@@ -61,8 +58,6 @@ FLAT_RUN_SAMPLES = 20
 #: Samples after (and before) an input step where the model's own errors gather (delays, lags,
 #: ringing): no jump or spike is looked for there.
 _AFTER_INPUT_STEP, _BEFORE_INPUT_STEP = 20, 5
-#: An input step also stands out of the input's changes within this many samples on either side.
-_STEP_NEIGHBOURS = 10
 #: A jump's neighbours: the residual's other steps within this many samples are small.
 _QUIET = 5
 #: A jump between two local lines: each is fitted on this many samples on its side ...
@@ -226,15 +221,10 @@ def repaired_displacement(displacement_um, artefacts) -> np.ndarray:
 
 def _near_input_steps(v) -> np.ndarray:
     """Samples within reach of an input step: a one-sample change of the input five times its median
-    change, over the record and over the ``_STEP_NEIGHBOURS`` changes on either side (and more than
-    0.1 % of its range), from ``_BEFORE_INPUT_STEP`` before to ``_AFTER_INPUT_STEP`` after."""
+    change (and more than 0.1 % of its range), from ``_BEFORE_INPUT_STEP`` before to
+    ``_AFTER_INPUT_STEP`` after."""
     dv = np.abs(np.diff(v))
     step = dv > max(5.0 * float(np.median(dv)), 1e-3 * float(np.ptp(v)))
-    # a fast stretch of the input changes that much at every sample and is no step: the sines after a
-    # staircase (whose holds set the record's median), a chirp's fast end.  Taken for steps, they hid
-    # 10-48 % of steps-and-sines records from the search (a 33 σ spike in 20 Hz sines went unseen)
-    if dv.size:
-        step &= dv > 5.0 * scipy.ndimage.median_filter(dv, size=2 * _STEP_NEIGHBOURS + 1, mode="nearest")
     # dv[k] is the change from sample k to k + 1: reach from k back and from k + 1 on
     return _within_reach(v.size, np.flatnonzero(step), _BEFORE_INPUT_STEP, _AFTER_INPUT_STEP + 1)
 
