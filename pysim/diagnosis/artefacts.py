@@ -12,7 +12,9 @@ the plain fit's residual (measured − simulated displacement):
 ``jump``
     A step of the residual between two samples that stays, while the input
     is steady (no input step in the 20 samples before and 5 after, so a
-    delayed or lagging response to an input step is never one): the sensor's
+    delayed or lagging response to an input step is never one; a step is a
+    large change of the input at which its slope changes by as much, so the
+    samples of fast sines are not steps): the sensor's
     zero, its mount or the stage moved.  Either the step itself stands out
     with the samples around it quiet, or, away from the input's corners too,
     straight lines through the 50 samples on either side, each fitting them
@@ -221,10 +223,20 @@ def repaired_displacement(displacement_um, artefacts) -> np.ndarray:
 
 def _near_input_steps(v) -> np.ndarray:
     """Samples within reach of an input step: a one-sample change of the input five times its median
-    change (and more than 0.1 % of its range), from ``_BEFORE_INPUT_STEP`` before to
-    ``_AFTER_INPUT_STEP`` after."""
-    dv = np.abs(np.diff(v))
-    step = dv > max(5.0 * float(np.median(dv)), 1e-3 * float(np.ptp(v)))
+    change (and more than 0.1 % of its range) at which the input's slope changes by as much, from
+    ``_BEFORE_INPUT_STEP`` before to ``_AFTER_INPUT_STEP`` after."""
+    change = np.diff(v)
+    dv = np.abs(change)
+    large = max(5.0 * float(np.median(dv)), 1e-3 * float(np.ptp(v)))
+    step = dv > large
+    # a fast stretch of the input changes that much at every sample and is no step: the sines after a
+    # staircase whose holds set the median, a chirp's fast end (taken for steps, they hid 10-48 % of
+    # steps-and-sines records from the search).  What a step does to a model's error (a fractional
+    # delay's one-sample pulse) follows the change of the slope, so a large one marks it
+    if change.size > 1:
+        bend = np.abs(np.diff(change))
+        into, out_of = np.concatenate(([np.inf], bend)), np.concatenate((bend, [np.inf]))
+        step &= np.maximum(into, out_of) > large
     # dv[k] is the change from sample k to k + 1: reach from k back and from k + 1 on
     return _within_reach(v.size, np.flatnonzero(step), _BEFORE_INPUT_STEP, _AFTER_INPUT_STEP + 1)
 
