@@ -1950,3 +1950,69 @@ def test_without_a_second_record_an_unexplained_verdict_delivers_the_plain_fit()
         # what it would have delivered: worse on the input it never saw
         best = min(d.candidates.values(), key=lambda ev: ev.mse_um2)
         assert _third_record_rms(pair, best.model) > 2 * _third_record_rms(pair, d.baseline.model)
+
+
+def _diagnose_outside_record_alone(seed: int, plant: str, effect: str):
+    """``(pair, diagnosis)``: the outside-class pair of ``seed`` (checked to be of ``plant`` with
+    ``effect``), its first record diagnosed alone."""
+    import outside_class_records
+
+    pair = outside_class_records.make_outside_pair(seed)
+    assert pair.plant == plant and pair.effect == effect
+    return pair, diagnose(pair.train.voltage_V, pair.train.displacement_um, pair.train.sample_rate_hz)
+
+
+@pytest.mark.parametrize("seed, plant", [(8, "preisach"), (73, "bouc_wen")])
+def test_without_a_second_record_an_actuator_outside_the_mpi_class_without_an_effect_names_nothing(seed, plant):
+    """Truth (outside-class pairs 8 and 73): a Preisach and a Bouc-Wen actuator without an effect, on
+    triangles, given alone.  The MPI models leave their loop shape far above the noise and no cause
+    explains most of it (they were left `unexplained`, counted a false alarm).  One rate-independent
+    actuator of any Preisach or Bouc-Wen shape explains both halves of the record to their noise:
+    nothing is named, the verdict says how and what it does not rule out, and the plain fit is
+    delivered."""
+    from pysim.diagnosis.preisach import NOISE_FRACTION
+
+    _, d = _diagnose_outside_record_alone(seed, plant, "none")
+    assert d.cause == "none" and d.causes == (), d.why
+    assert "by the general model on the record's two halves" in d.why, d.why
+    assert "Without the general model the verdict would be unexplained" in d.why, d.why
+    assert "not ruled out" in d.why, d.why
+    general = d.as_json()["evidence"]["general_model"]
+    assert general["fitted_on"] == "the record's two halves" and general["cause"] == "none"
+    assert general["left_sigma2"]["none"] <= NOISE_FRACTION
+    assert d.extended.model is d.baseline.model
+
+
+def test_without_a_second_record_a_named_cause_whose_model_misses_the_record_gives_way_to_the_general_model():
+    """Truth (outside-class pair 25): a Bouc-Wen actuator without an effect, on band-limited noise,
+    given alone.  The MPI models named creep (a false alarm whose model predicted the third record
+    worse than the plain fit), and creep's own model leaves the record several σ² above its noise.
+    The general model alone fits both halves of the record to their noise: nothing is named."""
+    from pysim.diagnosis.rules import UNEXPLAINED_LEVEL
+
+    _, d = _diagnose_outside_record_alone(25, "bouc_wen", "none")
+    assert d.cause == "none" and d.causes == (), d.why
+    assert "Without the general model the verdict would be creep" in d.why, d.why
+    left = re.search(r"creep's model leaves the record ([0-9.]+) σ² above its noise", d.why)
+    assert left and float(left.group(1)) >= UNEXPLAINED_LEVEL, d.why
+    assert d.as_json()["evidence"]["general_model"]["cause"] == "none"
+    assert d.extended.model is d.baseline.model
+
+
+def test_without_a_second_record_an_effect_the_general_model_needs_is_named_and_the_plain_fit_delivered():
+    """Truth (outside-class pair 28): a Preisach actuator with a lag, on a sine sweep, given alone.
+    The MPI models leave the record unexplained (their loop shape and the lag together).  On the
+    general model fitted on the record's two halves, the lag is what brings both halves to their
+    noise (a sweep's rates differ): it is named.  Its MPI model, fitted with the MPI weights, would
+    carry their shape error too, so the plain fit is delivered."""
+    from pysim.diagnosis.preisach import NOISE_FRACTION
+    from pysim.diagnosis.report import summary_markdown
+
+    _, d = _diagnose_outside_record_alone(28, "preisach", "lag")
+    assert "rate_dependence" in d.causes, d.why
+    general = d.as_json()["evidence"]["general_model"]
+    assert general["cause"] in d.causes and general["left_sigma2"]["rate_dependence"] <= NOISE_FRACTION
+    assert general["left_sigma2"]["none"] > 10.0           # far from explained without the lag
+    assert d.extended.model is d.baseline.model
+    assert "the model delivered is the plain fit" in d.why, d.why
+    assert "is named by the general model on the record's two halves" in summary_markdown(d)

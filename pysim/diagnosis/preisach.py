@@ -528,7 +528,72 @@ def effects_on_both_records(v1, y1, period1_s, v2, y2, period2_s, *, stop_at_noi
     return fits
 
 
-def verdict_on_both_records(fits: dict) -> dict:
+def effects_on_halves(voltage_V, displacement_um, period_s, *, stop_at_noise: bool = False) -> dict:
+    """:func:`effects_on_both_records` on one record, its first and second half taken as the two
+    records.
+
+    Without a second record, the general model can still say whether one rate-independent actuator
+    explains the record: fitted on both halves together (each half with its own sensor offset and
+    gain, so a half may differ by that much and no more), a hysteresis outside the MPI class is
+    fitted to the noise on each half.  Each half uses only samples whose operator outputs its own
+    input fixes, as two records would.
+
+    Parameters
+    ----------
+    voltage_V, displacement_um : array_like
+        The record.
+    period_s : float
+        Its sample period, s.
+    stop_at_noise : bool
+        As for :func:`effects_on_both_records`.
+
+    Returns
+    -------
+    dict of str to JointFit
+
+    Examples
+    --------
+    A rate-independent actuator outside the MPI class (a smooth density of play operators, each
+    through a quadratic output), on one multisine record:
+
+    >>> rng = np.random.default_rng(5)
+    >>> t = np.arange(8000) / 1000.0
+    >>> v = 50 + 30 * np.sin(2 * np.pi * 0.7 * t) + 18 * np.sin(2 * np.pi * 2.3 * t)
+    >>> r = np.arange(0.0, 40.0, 0.5)
+    >>> low, _ = operator_bounds(v, r, "osp", 0.0)
+    >>> y = (np.exp(-r / 20) * (0.01 * low + 1e-4 * low**2)).sum(axis=1)
+    >>> fits = effects_on_halves(v, y + rng.normal(0, 0.1, t.size), 1e-3, stop_at_noise=True)
+    >>> verdict_on_both_records(fits, "the record's two halves")["cause"]
+    'none'
+    """
+    (v1, y1), (v2, y2) = _halves(voltage_V, displacement_um)
+    return effects_on_both_records(v1, y1, period_s, v2, y2, period_s, stop_at_noise=stop_at_noise)
+
+
+def fit_on_halves(voltage_V, displacement_um, period_s) -> JointFit:
+    """The general rate-independent model alone fitted on one record's two halves
+    (:func:`effects_on_halves` without the effects).
+
+    Examples
+    --------
+    >>> t = np.arange(4000) / 1000.0
+    >>> v = 50 + 40 * np.sin(2 * np.pi * 1.3 * t)
+    >>> fit = fit_on_halves(v, 0.1 * v + np.random.default_rng(0).normal(0, 0.05, t.size), 1e-3)
+    >>> len(fit.mse_sigma2), bool(max(fit.mse_sigma2) < 1.0 + NOISE_FRACTION)
+    (2, True)
+    """
+    (v1, y1), (v2, y2) = _halves(voltage_V, displacement_um)
+    return fit_both_records(v1, y1, period_s, v2, y2, period_s)
+
+
+def _halves(voltage_V, displacement_um) -> tuple:
+    """``((v1, y1), (v2, y2))``: a record's first and second half."""
+    v, y = np.asarray(voltage_V, dtype=float), np.asarray(displacement_um, dtype=float)
+    half = v.size // 2
+    return (v[:half], y[:half]), (v[half:], y[half:])
+
+
+def verdict_on_both_records(fits: dict, records: str = "both records") -> dict:
     """What the general model says of two records that the MPI diagnosis leaves unexplained, or
     whose named cause's MPI model misses the second record.
 
@@ -546,7 +611,9 @@ def verdict_on_both_records(fits: dict) -> dict:
     Parameters
     ----------
     fits : dict of str to JointFit
-        :func:`effects_on_both_records`'s result.
+        :func:`effects_on_both_records`'s (or :func:`effects_on_halves`') result.
+    records : str
+        What the fits were made on, as the sentence names it.
 
     Returns
     -------
@@ -576,8 +643,8 @@ def verdict_on_both_records(fits: dict) -> dict:
     base = fits["none"]
     left = {c: f.excess_sigma2 for c, f in fits.items()}
     described = (f"a general rate-independent model (a discrete Preisach model of {N_THRESHOLDS} play operators, "
-                 f"each through its own output function, and {N_OPERATORS} Bouc-Wen operators) fitted on both "
-                 "records together leaves "
+                 f"each through its own output function, and {N_OPERATORS} Bouc-Wen operators) fitted on {records} "
+                 "together leaves "
                  + " and ".join(f"{m:.3g} σ²" for m in base.mse_sigma2) + " of their noise")
     if _within_noise(base):
         return {"cause": "none", "causes": (), "left_sigma2": left,

@@ -360,6 +360,9 @@ def summary_markdown(d: Diagnosis) -> str:
     lines += [
         "",
         (f"Model delivered: the plain fit (`{d.withheld}`'s model predicts the second record worse)" if d.withheld
+         else (f"Model delivered: the plain fit (`{d.cause}` is named by the general model on the record's two "
+               "halves; its MPI model, fitted with the MPI weights, would carry their loop-shape error too)")
+         if d.extended.cause == "baseline" and (d.general_model or {}).get("cause") == d.cause != "none"
          else f"Model delivered: the plain fit (no cause is named: `{d.cause}`)" if d.extended.cause == "baseline"
          else f"Extended model: `{d.extended.cause}`; gain **{d.gain_pct:.1f} %** less cross-validated RMS error "
          "than the baseline (`100 (1 − rms_after / rms_before)`)")

@@ -58,6 +58,13 @@ class Diagnosis:
         The record fitted shows no measurable noise (a simulation:
         :func:`pysim.diagnosis.residuals.is_noise_free`); ``noise_um`` is then
         0.1 % of its range, the lowest noise the diagnosis was measured at.
+    general_model : dict or None
+        Without a second record, when the MPI models left the record
+        ``unexplained``: what the general rate-independent model fitted on the
+        record's two halves said (``fitted_on``, ``cause``: ``"none"``, a cause
+        or None when the verdict stands, ``causes`` and ``left_sigma2``: what
+        it leaves above the noise alone and with each effect, σ²).  None
+        otherwise (with a second record this is in ``validation``).
     baseline, extended, richer : Evaluation
     candidates : dict
         Cause → Evaluation.
@@ -93,6 +100,7 @@ class Diagnosis:
     shape: dict = field(default_factory=dict)
     artefacts: list = field(default_factory=list)
     noise_free: bool = False
+    general_model: dict = None
 
     @property
     def gain_pct(self) -> float:
@@ -180,6 +188,7 @@ class Diagnosis:
                 "shape": self.shape,
                 "record_artefacts": self.artefacts,
                 "validation": self.validation,
+                "general_model": self.general_model,
                 "residual_statistics": _plain(self.statistics),
             },
             "baseline": {"rms_pct": self.baseline.rms_pct, "max_pct": self.baseline.max_pct},
