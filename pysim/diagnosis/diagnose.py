@@ -102,14 +102,11 @@ Procedure (``diagnose``):
    (:func:`pysim.diagnosis.second_record.creep_modes_of_both_records`): fitted
    with the MPI weights on one record, the modes also take up the MPI
    model's loop-shape error.  Without a second record, an ``unexplained``
-   verdict, and a named lag, delay, creep or input low-pass whose own model
-   leaves the record ``UNEXPLAINED_LEVEL`` σ² above its noise, are put to the
-   same model fitted on the record's two halves
+   verdict is put to the same model fitted on the record's two halves
    (:func:`pysim.diagnosis.preisach.effects_on_halves`): ``none`` when it
-   alone fits each half to its noise (for a named cause, leaving under
-   ``NEAR_NOISE_FRACTION`` σ² over both); for ``unexplained``, a decisive
-   effect when it brings each half there too (its MPI model is not
-   delivered: the plain fit is); else the verdict stands.
+   alone fits each half to its noise, a decisive effect when it brings each
+   half there too (its MPI model is not delivered: the plain fit is), else
+   the verdict stands.
    **Holds** of the input (:mod:`pysim.diagnosis.holds`) also weigh the
    verdict: a rate-independent actuator stands still in them, so they turn an
    ``unexplained`` verdict into ``none``, rule out a named cause whose model
@@ -139,7 +136,7 @@ from pysim.diagnosis.holds import (contradicted_by_holds, contradicted_sentence,
                                    still_sentence, voting_holds)
 from pysim.diagnosis.path_memory import path_memory
 from pysim.diagnosis.preisach import (creep_on_both_records, effects_on_both_records, effects_on_halves,
-                                      fit_on_halves, verdict_on_both_records)
+                                      verdict_on_both_records)
 from pysim.diagnosis.residuals import (NOISE_FREE_FRACTION, VALIDATED_NOISE_FRACTION, models_noise_sigma,
                                       record_noise_sigma, residual_statistics)
 from pysim.diagnosis.result import Diagnosis
@@ -279,7 +276,8 @@ def _check_record(v, y, sample_rate_hz, what: str):
 def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, n_operators: int = 10,
              model: str = "mpi", operator: str = "osp", train_fraction: float = DEFAULT_TRAIN_FRACTION,
              warmup="auto", validate=None, name: str = "extended_mpi", source: str = "",
-             validate_source: str = "", repair_artefacts: bool = True, _swap_reason: str = "") -> Diagnosis:
+             validate_source: str = "", repair_artefacts: bool = True, _swap_reason: str = "",
+             _halves: bool = True) -> Diagnosis:
     """Diagnose what a rate-independent MPI model misses on a measured record.
 
     Parameters
@@ -356,7 +354,11 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     records = _prepared_records(voltage_V, displacement_um, sample_rate_hz, time_s, validate, source, validate_source)
     options = _Options(n_operators=n_operators, model=model, operator=operator, train_fraction=train_fraction,
                        warmup=warmup, name=name, repair_artefacts=repair_artefacts)
-    return _DiagnosisRun(records, options, _swap_reason).diagnosis()
+    run = _DiagnosisRun(records, options, _swap_reason)
+    # a second record diagnosed alone inside a diagnosis of two keeps the MPI models' own verdict (the
+    # pair's rules read it as such); the general model judges the pair on both records instead
+    run.halves_asked = _halves
+    return run.diagnosis()
 
 
 @dataclass
@@ -465,6 +467,7 @@ class _DiagnosisRun:
         self.validation = None
         # without a second record: what the general model on the record's two halves said
         self.halves_sentence, self.halves_named, self.general_model = "", False, None
+        self.halves_asked = True
 
     def diagnosis(self) -> Diagnosis:
         """Run every phase; the diagnosis, with the artefacts found reported."""
@@ -1074,60 +1077,34 @@ class _DiagnosisRun:
         return None
 
     def _ask_general_model_on_halves(self):
-        """Without a second record, a verdict the MPI models cannot settle put to the general model
-        fitted on the record's two halves: an ``unexplained`` one (``none`` when the model alone fits
-        each half to its noise, an effect when it brings each half there, else it stands), and a named
-        cause whose own model leaves the record ``UNEXPLAINED_LEVEL`` σ² above its noise (``none`` when
-        the model alone leaves nothing for it, else the name stands)."""
-        named = self.verdict["cause"]
-        if self.unidentified or named not in ("unexplained", *EFFECTS):
+        """Without a second record, an ``unexplained`` verdict put to the general model fitted on the
+        record's two halves: ``none`` when the model alone fits each half to its noise, an effect when
+        it brings each half there too, else the verdict stands (with the evidence)."""
+        if self.unidentified or self.verdict["cause"] != "unexplained" or not self.halves_asked:
             return
-        named_left = self.candidates[named].mse_um2 / self.noise**2 - 1.0 if named in EFFECTS else 0.0
-        if named != "unexplained" and not (named_left >= UNEXPLAINED_LEVEL
-                                           and _general_model_can_judge(self.candidates[named])):
-            return
-        # The MPI models leave the record unexplained, or the named cause's model leaves it far above
-        # its noise: an effect outside what they show, or their loop shape (outside the MPI class) that
-        # an effect stood in for.  One rate-independent actuator of any Preisach or Bouc-Wen shape that
-        # explains both halves of the record to their noise leaves nothing for an effect to explain
-        # (outside-class seeds 8, 72, 73, 80, first record alone: actuators without an effect left
-        # unexplained, each half within 0.09 σ² of its noise; 25, 49, 81: Bouc-Wen actuators without an
-        # effect named creep, whose models leave the record 4.8-9.5 σ² above its noise and predicted a
-        # third input up to 3.6x worse than the plain fit; of the 30 in-class records named right alone
-        # whose halves the model alone fits to their noise, none has its cause's model leave more than
-        # 0.73 σ²; where the model alone does not fit them, a name stands).  An effect is named where
-        # the verdict was `unexplained`, as on two records, and only when it too brings each half to its noise: one
-        # input shows an effect and a loop shape together, and creep on triangles of one rate bends the
-        # loops as a shape does (seeds 4 and 40, Preisach actuators with a lag and without an effect:
-        # creep removes most of what the model alone leaves, and leaves a half 0.4-1.1 σ² above its
-        # noise).  What one input cannot show apart from a loop shape (a lag on triangles of one rate)
-        # is not ruled out by `none`, and the verdict says so.  An effect's MPI model is not delivered:
-        # fitted with the MPI weights it takes up their loop-shape error too (the plain fit is, as for
-        # an `unexplained` verdict)
-        named_set = ", ".join(self.verdict["causes"]) or named
-        if named == "unexplained":
-            fits = effects_on_halves(self.v, self.y, self.T, stop_at_noise=True)
-        else:
-            # only `none` may replace a named cause: the model alone is all that is needed
-            fits = {"none": fit_on_halves(self.v, self.y, self.T)}
+        # The MPI models leave the record unexplained: an effect outside what they show, or their loop
+        # shape (outside the MPI class).  One rate-independent actuator of any Preisach or Bouc-Wen shape
+        # that explains both halves of the record to their noise leaves nothing for an effect to explain
+        # (outside-class seeds 8, 72, 73, 80, first record alone: actuators without an effect, each half
+        # within 0.09 σ² of its noise).  An effect is named as on two records, and only when it too
+        # brings each half to its noise: one input shows an effect and a loop shape together, and creep
+        # on triangles of one rate bends the loops as a shape does (seeds 4 and 40, Preisach actuators
+        # with a lag and without an effect: creep removes most of what the model alone leaves, and leaves
+        # a half 0.4-1.1 σ² above its noise).  What one input cannot show apart from a loop shape (a lag
+        # on triangles of one rate) is not ruled out by `none`, and the verdict says so.  The effect's
+        # MPI model is not delivered: fitted with the MPI weights it takes up their loop-shape error too
+        # (the plain fit is, as for an `unexplained` verdict)
+        fits = effects_on_halves(self.v, self.y, self.T, stop_at_noise=True)
         said = verdict_on_both_records(fits, "the record's two halves")
-        asked_because = ("" if named == "unexplained" else
-                         f"{named_set} {'was' if len(self.verdict['causes']) <= 1 else 'were'} named, but {named}'s "
-                         f"model leaves the record {named_left:.3g} σ² above its noise, and ")
         if said["cause"] not in (None, "none") and max(fits[said["cause"]].mse_sigma2) > 1.0 + NOISE_FRACTION:
             said = dict(said, cause=None, causes=(), sentence=(
                 f"{said['sentence']}, but with it the halves stand at " + " and ".join(
                     f"{m:.3g}" for m in fits[said["cause"]].mse_sigma2) + " of their noise: on one record an effect "
                 "is named there only when it explains both halves to their noise, as a loop shape bends them too"))
-        if named != "unexplained" and not (said["cause"] == "none"
-                                           and said["left_sigma2"]["none"] <= NEAR_NOISE_FRACTION):
-            said = dict(said, cause=None, causes=(), sentence=(
-                "the general model alone, fitted on the record's two halves, leaves "
-                + " and ".join(f"{m:.3g}" for m in fits["none"].mse_sigma2) + " of their noise: the name stands"))
         self.general_model = {"fitted_on": "the record's two halves", "cause": said["cause"],
                               "causes": list(said["causes"]), "left_sigma2": said["left_sigma2"]}
         if said["cause"] is None:
-            self.halves_sentence = asked_because + said["sentence"]
+            self.halves_sentence = said["sentence"]
             return
         named_now = said["cause"]
         self.halves_named = named_now != "none"
@@ -1139,7 +1116,7 @@ class _DiagnosisRun:
                   == "none" else "; the model delivered is the plain fit: the MPI models leave the record "
                   f"unexplained, and {named_now}'s MPI model, fitted with their weights, takes up their loop-shape "
                   "error too")
-        self.halves_sentence = asked_because + said["sentence"] + caveat
+        self.halves_sentence = said["sentence"] + caveat
 
     def _choose_model_delivered(self):
         """The model handed over: the named cause's (its creep modes from the general model, refitted
@@ -1338,7 +1315,7 @@ def _second_record_shows_none(v2, y2, sample_rate_hz, validate_source, **options
     diagnosis (None when there is none)."""
     name = validate_source or "the second record"
     try:
-        alone = diagnose(v2, y2, sample_rate_hz, source=name, **options)
+        alone = diagnose(v2, y2, sample_rate_hz, source=name, _halves=False, **options)
     except DiagnosisError:
         return "", None
     if alone.cause != "none" or alone.noise_free:

@@ -570,22 +570,6 @@ def effects_on_halves(voltage_V, displacement_um, period_s, *, stop_at_noise: bo
     return effects_on_both_records(v1, y1, period_s, v2, y2, period_s, stop_at_noise=stop_at_noise)
 
 
-def fit_on_halves(voltage_V, displacement_um, period_s) -> JointFit:
-    """The general rate-independent model alone fitted on one record's two halves
-    (:func:`effects_on_halves` without the effects).
-
-    Examples
-    --------
-    >>> t = np.arange(4000) / 1000.0
-    >>> v = 50 + 40 * np.sin(2 * np.pi * 1.3 * t)
-    >>> fit = fit_on_halves(v, 0.1 * v + np.random.default_rng(0).normal(0, 0.05, t.size), 1e-3)
-    >>> len(fit.mse_sigma2), bool(max(fit.mse_sigma2) < 1.0 + NOISE_FRACTION)
-    (2, True)
-    """
-    (v1, y1), (v2, y2) = _halves(voltage_V, displacement_um)
-    return fit_both_records(v1, y1, period_s, v2, y2, period_s)
-
-
 def _halves(voltage_V, displacement_um) -> tuple:
     """``((v1, y1), (v2, y2))``: a record's first and second half."""
     v, y = np.asarray(voltage_V, dtype=float), np.asarray(displacement_um, dtype=float)
