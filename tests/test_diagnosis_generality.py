@@ -1983,6 +1983,25 @@ def test_without_a_second_record_an_actuator_outside_the_mpi_class_without_an_ef
     assert d.extended.model is d.baseline.model
 
 
+def test_without_a_second_record_a_named_cause_whose_model_misses_the_record_gives_way_to_the_general_model():
+    """Truth (outside-class pair 25): a Bouc-Wen actuator without an effect, on band-limited noise,
+    given alone.  The MPI models named creep (a false alarm whose model predicted the third record
+    worse than the plain fit), and creep's own model leaves the record several σ² above its noise.
+    The general model alone, with one sensor, fits both halves of the record to their noise: nothing
+    is named, and the plain fit is delivered."""
+    from pysim.diagnosis.rules import NEAR_NOISE_FRACTION, UNEXPLAINED_LEVEL
+
+    pair, d = _diagnose_outside_record_alone(25, "bouc_wen", "none")
+    assert d.cause == "none" and d.causes == (), d.why
+    assert "Without the general model the verdict would be creep" in d.why, d.why
+    left = re.search(r"creep's model leaves the record ([0-9.]+) σ² above its noise", d.why)
+    assert left and float(left.group(1)) >= UNEXPLAINED_LEVEL, d.why
+    general = d.as_json()["evidence"]["general_model"]
+    assert general["cause"] == "none" and general["left_sigma2"]["none"] <= NEAR_NOISE_FRACTION
+    assert d.extended.model is d.baseline.model
+    assert _third_record_rms(pair, d.extended.model) <= _third_record_rms(pair, d.candidates["creep"].model)
+
+
 def test_without_a_second_record_an_effect_the_general_model_needs_is_named_and_the_plain_fit_delivered():
     """Truth (outside-class pair 28): a Preisach actuator with a lag, on a sine sweep, given alone.
     The MPI models leave the record unexplained (their loop shape and the lag together).  On the

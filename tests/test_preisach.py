@@ -9,8 +9,8 @@ from independent_records import preisach_relays
 from pysim.diagnosis.bouc_wen import forgotten_from
 from pysim.diagnosis.candidates import creep_time_constants_s
 from pysim.diagnosis.preisach import (HYSTERESIS_COLUMNS, NOISE_FRACTION, effects_on_both_records,
-                                      fit_both_records, general_thresholds, preisach_columns,
-                                      verdict_on_both_records)
+                                      effects_on_halves, fit_both_records, fit_on_halves, general_thresholds,
+                                      preisach_columns, verdict_on_both_records)
 
 RATE_HZ = 2000.0
 FINE = 8
@@ -107,6 +107,35 @@ def test_the_second_records_sensor_gain_and_offset_are_refitted(inputs):
     assert fit.second_gain == pytest.approx(1.036, abs=0.003)
     assert fit.second_offset_um == pytest.approx(-0.9, abs=0.05)
     assert max(fit.mse_sigma2) < 1.0 + NOISE_FRACTION
+
+
+def test_one_records_halves_share_its_sensor_and_its_history(inputs):
+    """One record scored on its two halves: the second half starts where the first left the actuator
+    (every one of its samples is used), and both have one sensor, so a step of the sensor's zero
+    between them is left, not fitted away as a second record's offset would be."""
+    v = np.r_[inputs[0], inputs[1]]
+    y = _noisy(_actuator(v), 12)
+    fit = fit_on_halves(v, y, 1 / RATE_HZ)
+    assert fit.samples[1] == v.size - v.size // 2
+    assert max(fit.mse_sigma2) < 1.0 + NOISE_FRACTION
+    assert verdict_on_both_records(effects_on_halves(v, y, 1 / RATE_HZ, stop_at_noise=True))["cause"] == "none"
+    stepped = y + np.where(np.arange(v.size) >= v.size // 2, 8 * NOISE_UM, 0.0)
+    assert min(fit_on_halves(v, stepped, 1 / RATE_HZ).mse_sigma2) > 1.0 + 2 * NOISE_FRACTION
+    # as two records, the second's own offset takes the step
+    half = v.size // 2
+    two = fit_both_records(v[:half], stepped[:half], 1 / RATE_HZ, v[half:], stepped[half:], 1 / RATE_HZ)
+    assert max(two.mse_sigma2) < 1.0 + NOISE_FRACTION
+
+
+def test_a_lag_on_one_record_of_several_rates_is_named_on_its_halves(inputs):
+    """A lag on one record whose halves differ in rate (triangles, then a multisine): the general
+    model alone leaves it, the lag brings both halves to their noise."""
+    v = np.r_[inputs[0], inputs[1]]
+    fits = effects_on_halves(v, _noisy(_actuator(v, 5e-3), 13), 1 / RATE_HZ)
+    said = verdict_on_both_records(fits, "the record's two halves")
+    assert "rate_dependence" in said["causes"], said["sentence"]
+    assert fits["rate_dependence"].parameter == pytest.approx(5e-3, rel=0.25)
+    assert max(fits["rate_dependence"].mse_sigma2) < 1.0 + NOISE_FRACTION
 
 
 def test_an_input_low_pass_is_named_as_the_stage_before_the_hysteresis_not_as_a_lag(inputs):

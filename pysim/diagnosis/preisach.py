@@ -28,6 +28,11 @@ the state the actuator was in when a record began is never guessed
 reach as far as every record determines within its first
 ``1 - KNOWN_SHARE``.
 
+Without a second record, the same model is fitted on the one record and
+scored on its two halves (:func:`effects_on_halves`, :func:`fit_on_halves`):
+one sensor for both (a jump of the sensor's zero is not an offset of a second
+record), and every path run over the whole record.
+
 An effect of the catalogue is then tried on the same model, fitted on both
 records together with its shape parameter searched, each as the catalogue
 runs it (one implementation of each stage):
@@ -61,7 +66,8 @@ from pysim.diagnosis.rules import DECISIVE_SHARE, NOISE_FRACTION, TIE_FRACTION, 
 from pysim.identification.identify import operator_bounds
 
 __all__ = ["N_THRESHOLDS", "N_LEVELS", "HYSTERESIS_COLUMNS", "KNOWN_SHARE", "JointFit", "preisach_columns",
-           "fit_both_records", "creep_on_both_records", "effects_on_both_records", "verdict_on_both_records"]
+           "fit_both_records", "creep_on_both_records", "effects_on_both_records", "effects_on_halves",
+           "fit_on_halves", "verdict_on_both_records"]
 
 #: Play operators of the general model (the first is the input itself).
 N_THRESHOLDS = 16
@@ -98,7 +104,8 @@ class JointFit:
     samples : tuple of int
         Each record's usable samples (every operator fixed by the input).
     second_gain, second_offset_um : float
-        The second record's sensor gain and offset against the first's.
+        The second record's sensor gain and offset against the first's (1 and 0 for one record's
+        halves, which share its sensor).
     weights : ndarray
         The fitted weights (the hysteresis columns first, then the effect's).
     creep : dict or None
@@ -135,9 +142,9 @@ def _first_fixed_sample(low, high) -> np.ndarray:
     return np.where(fixed.any(axis=0), first, low.shape[0])
 
 
-def general_thresholds(records_V) -> np.ndarray:
+def general_thresholds(records_V, known_share: float = KNOWN_SHARE) -> np.ndarray:
     """``N_THRESHOLDS`` thresholds (V) from 0 to the largest every record fixes within its first
-    ``1 - KNOWN_SHARE`` of samples.
+    ``1 - known_share`` of samples.
 
     Examples
     --------
@@ -151,7 +158,7 @@ def general_thresholds(records_V) -> np.ndarray:
     reach = span
     for v in records_V:
         first = _first_fixed_sample(*operator_bounds(v, probe, "osp", 0.0))
-        fixed_early = probe[first <= (1.0 - KNOWN_SHARE) * len(v)]
+        fixed_early = probe[first <= (1.0 - known_share) * len(v)]
         reach = min(reach, float(fixed_early.max()) if fixed_early.size else 0.0)
     if reach <= 0.0:
         reach = probe[0]
@@ -217,11 +224,21 @@ def _solve(gram, rhs, nonnegative=()):
     return x / scale
 
 
-def _fit(designs, displacements_um, effect, parameter, nonnegative=()) -> JointFit:
+def _fit(designs, displacements_um, effect, parameter, nonnegative=(), shared_sensor: bool = False) -> JointFit:
     """Fit the weights on both records (each design and displacement on the rows used), the second
-    with its own sensor gain and offset (``nonnegative``: columns whose weights stay >= 0)."""
+    with its own sensor gain and offset, or, with ``shared_sensor`` (two parts of one record), one
+    offset for both (``nonnegative``: columns whose weights stay >= 0)."""
     A1, A2 = (np.ascontiguousarray(A) for A in designs)
     y1, y2 = displacements_um
+    if shared_sensor:
+        # one sensor: a single offset column, and nothing to search
+        A = np.vstack([np.hstack([A1, np.ones((A1.shape[0], 1))]), np.hstack([A2, np.ones((A2.shape[0], 1))])])
+        weights = _solve(A.T @ A, A.T @ np.r_[y1, y2], nonnegative)
+        e1 = y1 - A[:y1.size] @ weights
+        e2 = y2 - A[y1.size:] @ weights
+        noise = (record_noise_sigma(e1, y1), record_noise_sigma(e2, y2))
+        mse = tuple(float(np.mean(e**2) / s**2) for e, s in zip((e1, e2), noise))
+        return JointFit(effect, parameter, mse, noise, (y1.size, y2.size), 1.0, 0.0, weights[:-1])
     # the normal equations' parts, computed once: for a fixed gain g of the second record,
     # [A1 1 0; g A2 0 1] [w; c1; c2] = [y1; y2] is linear in the weights and both offsets
     G1, G2 = A1.T @ A1, A2.T @ A2
@@ -265,25 +282,48 @@ INPUT_EFFECTS = {"rate_dependent_hysteresis": "lowpass", "slew_limit": "slew_lim
 
 
 class _BothRecords:
-    """The two records prepared once: thresholds, operator outputs, usable rows."""
+    """Two records prepared once (thresholds, operator outputs, usable rows), or one record's two
+    halves (:meth:`halves`): the parts the model is scored on, each a record's rows."""
 
     def __init__(self, v1, y1, period1_s, v2, y2, period2_s):
-        self.v = (np.asarray(v1, dtype=float), np.asarray(v2, dtype=float))
-        self.y = (np.asarray(y1, dtype=float), np.asarray(y2, dtype=float))
-        self.T = (float(period1_s), float(period2_s))
-        self.thresholds_V = general_thresholds(self.v)
+        self._prepare(((v1, y1, period1_s), (v2, y2, period2_s)), KNOWN_SHARE, halves=False)
+
+    @classmethod
+    def halves(cls, voltage_V, displacement_um, period_s):
+        """One record, scored on its first and second half: one sensor (one offset, no second gain),
+        and the operators' and the Bouc-Wen bank's paths run over the whole record, so the second half
+        starts where the first left them (as the actuator did) and only the record's start is unknown."""
+        both = cls.__new__(cls)
+        # the thresholds leave each half KNOWN_SHARE of its samples, the first half too
+        both._prepare(((voltage_V, displacement_um, period_s),), 1.0 - (1.0 - KNOWN_SHARE) / 2.0, halves=True)
+        return both
+
+    def _prepare(self, records, known_share, halves):
+        self.v = tuple(np.asarray(v, dtype=float) for v, _, _ in records)
+        self.y = tuple(np.asarray(y, dtype=float) for _, y, _ in records)
+        self.T = tuple(float(T) for _, _, T in records)
+        self.shared_sensor = halves
+        self.thresholds_V = general_thresholds(self.v, known_share)
         self.range_V = (min(float(v.min()) for v in self.v), max(float(v.max()) for v in self.v))
         built = [preisach_columns(v, self.thresholds_V, self.range_V) for v in self.v]
         self.A = tuple(self._with_bouc_wen(a, v) for (a, _), v in zip(built, self.v))
         # rows where every play operator is fixed by the input and the Bouc-Wen bank has forgotten
-        # its state before the record, as far as that leaves KNOWN_SHARE of the record
-        self.usable = tuple(np.arange(max(first, min(forgotten_from(v, self.range_V),
-                                                     int((1.0 - KNOWN_SHARE) * v.size))), v.size)
-                            for (_, first), v in zip(built, self.v))
+        # its state before the record, as far as that leaves known_share of the record
+        usable = [np.arange(max(first, min(forgotten_from(v, self.range_V), int((1.0 - known_share) * v.size))), v.size)
+                  for (_, first), v in zip(built, self.v)]
+        if halves:
+            half = self.v[0].size // 2
+            self.record_of = (0, 0)
+            self.usable = (usable[0][usable[0] < half], usable[0][usable[0] >= half])
+            self.part_s = (half * self.T[0], (self.v[0].size - half) * self.T[0])
+        else:
+            self.record_of = (0, 1)
+            self.usable = tuple(usable)
+            self.part_s = tuple(v.size * T for v, T in zip(self.v, self.T))
         # creep may only trail the input in the direction of the actuator's gain (the catalogue's
         # admissible creep: non-negative weights on the modes' lag behind the input)
         self.gain_sign = gain_sign(self.v[0], self.y[0])
-        shortest = min(v.size for v in self.v)
+        shortest = min(round(span / T) for span, T in zip(self.part_s, (self.T[r] for r in self.record_of)))
         self.creep_time_constants_s = creep_time_constants_s(shortest, max(self.T))
         self._plain = {}            # the model alone, on the search rows and on all (creep starts from it)
 
@@ -292,13 +332,15 @@ class _BothRecords:
         return np.hstack([preisach_design, bouc_wen_bank(voltage_V, self.range_V)[rows]])
 
     def _rows(self, search):
-        # the shape parameter's search weighs every record on at most SEARCH_ROWS usable samples
-        # (every k-th: the whole record's character); the fit found is made on all of them
+        # the shape parameter's search weighs every part on at most SEARCH_ROWS usable samples
+        # (every k-th: the whole part's character); the fit found is made on all of them
         return ([rows[::max(1, rows.size // SEARCH_ROWS)] for rows in self.usable] if search else self.usable)
 
     def _on_rows(self, designs, rows, effect, parameter, nonnegative=()) -> JointFit:
-        return _fit([A[k] for A, k in zip(designs, rows)], [y[k] for y, k in zip(self.y, rows)],
-                    effect, parameter, nonnegative)
+        """Fit on each part's rows of its record's design (``designs``: one per record)."""
+        return _fit([designs[r][k] for r, k in zip(self.record_of, rows)],
+                    [self.y[r][k] for r, k in zip(self.record_of, rows)], effect, parameter, nonnegative,
+                    self.shared_sensor)
 
     def fit(self, effect="none", parameter=float("nan"), search=False) -> JointFit:
         if effect == "none":
@@ -316,18 +358,17 @@ class _BothRecords:
             return self._creep(rows)
         elif effect in INPUT_EFFECTS:
             # the operators see the stage's output: their paths (and the rows they fix) change
-            designs, kept = [], []
-            for v, T, used in zip(self.v, self.T, rows):
-                staged = apply_input_stage(INPUT_EFFECTS[effect], parameter, v, T)
-                low, first = _operator_paths(staged, self.thresholds_V)
-                kept.append(used[used >= first])
-                designs.append(self._with_bouc_wen(_spline_design(low[kept[-1]], self.thresholds_V, self.range_V),
-                                                   staged, kept[-1]))
+            staged = [apply_input_stage(INPUT_EFFECTS[effect], parameter, v, T) for v, T in zip(self.v, self.T)]
+            paths = [_operator_paths(x, self.thresholds_V) for x in staged]
+            kept = [used[used >= paths[r][1]] for r, used in zip(self.record_of, rows)]
             if min(k.size / u.size for k, u in zip(kept, rows)) < KNOWN_SHARE:
-                # a stage so slow that the operators' paths stay unknown on most of a record: not a fit
+                # a stage so slow that the operators' paths stay unknown on most of a part: not a fit
                 return JointFit(effect, parameter, (math.inf, math.inf), (math.nan, math.nan),
                                 tuple(k.size for k in kept))
-            return _fit(designs, [y[k] for y, k in zip(self.y, kept)], effect, parameter)
+            designs = [self._with_bouc_wen(_spline_design(paths[r][0][k], self.thresholds_V, self.range_V),
+                                           staged[r], k) for r, k in zip(self.record_of, kept)]
+            return _fit(designs, [self.y[r][k] for r, k in zip(self.record_of, kept)], effect, parameter,
+                        shared_sensor=self.shared_sensor)
         else:
             raise ValueError(f"the general model holds no effect {effect!r}")
         return self._on_rows(designs, rows, effect, parameter)
@@ -344,8 +385,8 @@ class _BothRecords:
         # each record may begin with its modes away from rest (a history before it): each mode's
         # free decay from the record's first sample, a column of that record alone, free in sign
         decays = [np.exp(-np.arange(v.size)[:, None] * T / taus) for v, T in zip(self.v, self.T)]
-        starts = [np.hstack([decays[0], np.zeros_like(decays[0])]),
-                  np.hstack([np.zeros_like(decays[1]), decays[1]])]
+        starts = [np.hstack([decay if r == k else np.zeros_like(decay) for k in range(len(self.v))])
+                  for r, decay in enumerate(decays)]
 
         def with_modes(drives, driven_by):
             designs = [np.hstack([A, mode_lags(x, taus, T), start])
@@ -509,12 +550,16 @@ def effects_on_both_records(v1, y1, period1_s, v2, y2, period2_s, *, stop_at_noi
     ...                                stop_at_noise=True))
     ['none']
     """
-    both = _BothRecords(v1, y1, period1_s, v2, y2, period2_s)
+    return _effects(_BothRecords(v1, y1, period1_s, v2, y2, period2_s), stop_at_noise)
+
+
+def _effects(both: _BothRecords, stop_at_noise: bool) -> dict:
+    """The model alone and with each effect, on two records or one record's halves."""
     alone = both.fit()
     if stop_at_noise and _within_noise(alone):
         return {"none": alone}
     period = max(both.T)
-    shortest = min(v.size * T for v, T in zip(both.v, both.T))
+    shortest = min(both.part_s)
     slowest_lag_s = min(300.0 * period, shortest / 20)
     fastest_V_per_s = max(float(np.max(np.abs(np.diff(v)))) / T for v, T in zip(both.v, both.T))
     fits = {"none": alone,
@@ -529,14 +574,15 @@ def effects_on_both_records(v1, y1, period1_s, v2, y2, period2_s, *, stop_at_noi
 
 
 def effects_on_halves(voltage_V, displacement_um, period_s, *, stop_at_noise: bool = False) -> dict:
-    """:func:`effects_on_both_records` on one record, its first and second half taken as the two
+    """:func:`effects_on_both_records` on one record, scored on its first and second half as on two
     records.
 
     Without a second record, the general model can still say whether one rate-independent actuator
-    explains the record: fitted on both halves together (each half with its own sensor offset and
-    gain, so a half may differ by that much and no more), a hysteresis outside the MPI class is
-    fitted to the noise on each half.  Each half uses only samples whose operator outputs its own
-    input fixes, as two records would.
+    explains the record: fitted on the whole record and scored on each half, a hysteresis outside
+    the MPI class is fitted to the noise on each.  The record has one sensor (one offset, no gain
+    of the second half against the first: a jump of the sensor is not explained away), and every
+    path runs over the whole record (the second half starts where the first left the actuator);
+    only samples whose operator outputs the input fixes are used.
 
     Parameters
     ----------
@@ -561,20 +607,47 @@ def effects_on_halves(voltage_V, displacement_um, period_s, *, stop_at_noise: bo
     >>> v = 50 + 30 * np.sin(2 * np.pi * 0.7 * t) + 18 * np.sin(2 * np.pi * 2.3 * t)
     >>> r = np.arange(0.0, 40.0, 0.5)
     >>> low, _ = operator_bounds(v, r, "osp", 0.0)
-    >>> y = (np.exp(-r / 20) * (0.01 * low + 1e-4 * low**2)).sum(axis=1)
-    >>> fits = effects_on_halves(v, y + rng.normal(0, 0.1, t.size), 1e-3, stop_at_noise=True)
+    >>> y = (np.exp(-r / 20) * (0.01 * low + 1e-4 * low**2)).sum(axis=1) + rng.normal(0, 0.1, t.size)
+    >>> fits = effects_on_halves(v, y, 1e-3, stop_at_noise=True)
     >>> verdict_on_both_records(fits, "the record's two halves")["cause"]
     'none'
+
+    The same record with the sensor's zero moved by 0.5 µm (5 σ) in its second half is not:
+
+    >>> y[t.size // 2:] += 0.5
+    >>> fits = effects_on_halves(v, y, 1e-3, stop_at_noise=True)
+    >>> verdict_on_both_records(fits, "the record's two halves")["cause"] == "none"
+    False
     """
-    (v1, y1), (v2, y2) = _halves(voltage_V, displacement_um)
-    return effects_on_both_records(v1, y1, period_s, v2, y2, period_s, stop_at_noise=stop_at_noise)
+    return _effects(_BothRecords.halves(voltage_V, displacement_um, period_s), stop_at_noise)
 
 
-def _halves(voltage_V, displacement_um) -> tuple:
-    """``((v1, y1), (v2, y2))``: a record's first and second half."""
-    v, y = np.asarray(voltage_V, dtype=float), np.asarray(displacement_um, dtype=float)
-    half = v.size // 2
-    return (v[:half], y[:half]), (v[half:], y[half:])
+def fit_on_halves(voltage_V, displacement_um, period_s) -> JointFit:
+    """The general rate-independent model alone, fitted on one record and scored on its two halves
+    (as :func:`effects_on_halves`).
+
+    Parameters
+    ----------
+    voltage_V, displacement_um : array_like
+        The record: voltage (V) and displacement (µm).
+    period_s : float
+        Its sample period, s.
+
+    Returns
+    -------
+    JointFit
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(3)
+    >>> t = np.arange(6000) / 1000.0
+    >>> v = 50 + 45 * np.sin(2 * np.pi * 1.3 * t) * np.cos(2 * np.pi * 0.21 * t)
+    >>> y = 0.2 * operator_bounds(v, [0.0, 10.0, 25.0], "osp", 0.0)[0].sum(axis=1)
+    >>> fit = fit_on_halves(v, y + rng.normal(0, 0.05, t.size), 1e-3)
+    >>> bool(max(fit.mse_sigma2) < 1.0 + NOISE_FRACTION), fit.samples[0] < fit.samples[1]
+    (True, True)
+    """
+    return _BothRecords.halves(voltage_V, displacement_um, period_s).fit()
 
 
 def verdict_on_both_records(fits: dict, records: str = "both records") -> dict:
