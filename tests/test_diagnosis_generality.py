@@ -2002,6 +2002,28 @@ def test_without_a_second_record_a_named_cause_whose_model_misses_the_record_giv
     assert _third_record_rms(pair, d.extended.model) <= _third_record_rms(pair, d.candidates["creep"].model)
 
 
+def test_without_a_second_record_a_named_cause_gives_way_to_the_effect_the_general_model_needs():
+    """Truth (outside-class pair 29): a Bouc-Wen actuator with a lag, on a sine sweep, given alone.
+    The MPI models named creep, whose own model leaves the record far above its noise.  On the
+    general model fitted on the record's halves, the lag alone brings each half to its noise, and
+    the named set holds no lag: the lag is named and its model delivered, which predicts a third
+    input the diagnosis never saw better than the plain fit and than creep's model."""
+    from pysim.diagnosis.preisach import NOISE_FRACTION
+    from pysim.diagnosis.rules import UNEXPLAINED_LEVEL
+
+    pair, d = _diagnose_outside_record_alone(29, "bouc_wen", "lag")
+    assert d.cause == "rate_dependence" and "creep" not in d.causes, d.why
+    assert "Without the general model the verdict would be creep" in d.why, d.why
+    left = re.search(r"creep's model leaves the record ([0-9.]+) σ² above its noise", d.why)
+    assert left and float(left.group(1)) >= UNEXPLAINED_LEVEL, d.why
+    general = d.as_json()["evidence"]["general_model"]
+    assert general["cause"] == "rate_dependence" and general["left_sigma2"]["rate_dependence"] <= NOISE_FRACTION
+    assert d.extended.cause == "rate_dependence"
+    delivered = _third_record_rms(pair, d.extended.model)
+    assert delivered < _third_record_rms(pair, d.baseline.model)
+    assert delivered < _third_record_rms(pair, d.candidates["creep"].model)
+
+
 def test_without_a_second_record_an_effect_the_general_model_needs_is_named_and_the_plain_fit_delivered():
     """Truth (outside-class pair 28): a Preisach actuator with a lag, on a sine sweep, given alone.
     The MPI models leave the record unexplained (their loop shape and the lag together).  On the

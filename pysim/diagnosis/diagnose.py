@@ -109,7 +109,9 @@ Procedure (``diagnose``):
    fit is), else the verdict stands; so is a named lag, delay, creep or input
    low-pass whose own model leaves the record ``UNEXPLAINED_LEVEL`` σ² above
    its noise (``none`` when the model alone fits each half to its noise and
-   leaves under ``NEAR_NOISE_FRACTION`` σ² over both, else the name stands).
+   leaves under ``NEAR_NOISE_FRACTION`` σ² over both; another effect, its MPI
+   model delivered, when that brings each half to its noise and the named set
+   holds none of its causes; else the name stands).
    **Holds** of the input (:mod:`pysim.diagnosis.holds`) also weigh the
    verdict: a rate-independent actuator stands still in them, so they turn an
    ``unexplained`` verdict into ``none``, rule out a named cause whose model
@@ -139,7 +141,7 @@ from pysim.diagnosis.holds import (contradicted_by_holds, contradicted_sentence,
                                    still_sentence, voting_holds)
 from pysim.diagnosis.path_memory import path_memory
 from pysim.diagnosis.preisach import (creep_on_both_records, effects_on_both_records, effects_on_halves,
-                                      fit_on_halves, verdict_on_both_records)
+                                      verdict_on_both_records)
 from pysim.diagnosis.residuals import (NOISE_FREE_FRACTION, VALIDATED_NOISE_FRACTION, models_noise_sigma,
                                       record_noise_sigma, residual_statistics)
 from pysim.diagnosis.result import Diagnosis
@@ -468,7 +470,7 @@ class _DiagnosisRun:
         self.turn_tried = False
         self.validation = None
         # without a second record: what the general model on the record's two halves said
-        self.halves_sentence, self.halves_named, self.general_model = "", False, None
+        self.halves_sentence, self.plain_fit_for_halves_effect, self.general_model = "", False, None
 
     def diagnosis(self) -> Diagnosis:
         """Run every phase; the diagnosis, with the artefacts found reported."""
@@ -1082,7 +1084,8 @@ class _DiagnosisRun:
         fitted on the record and scored on its two halves: an ``unexplained`` one (``none`` when the
         model alone fits each half to its noise, an effect when it brings each half there too, else it
         stands), and a named cause whose own model leaves the record ``UNEXPLAINED_LEVEL`` σ² above its
-        noise (``none`` when the model alone leaves nothing for it, else the name stands)."""
+        noise (``none`` when the model alone leaves nothing for it, another effect when that brings each
+        half to its noise and the named set holds none of its causes, else the name stands)."""
         named = self.verdict["cause"]
         if self.unidentified or not self.halves_asked or named not in ("unexplained", *EFFECTS):
             return
@@ -1098,49 +1101,56 @@ class _DiagnosisRun:
         # left unexplained; 25, 49, 81: Bouc-Wen actuators without an effect named creep, whose models
         # leave the record 4.8-9.5 σ² above its noise and predicted a third input up to 3.6x worse than
         # the plain fit; no in-class record named right alone has its cause's model leave 3 σ² where the
-        # model alone fits its halves).  An effect is named only where the verdict was `unexplained`, and
-        # only when it too brings each half to its noise: one input shows an effect and a loop shape
-        # together, and creep on triangles of one rate bends the loops as a shape does (seeds 4 and 40,
-        # Preisach actuators with a lag and without an effect: creep removes most of what the model alone
-        # leaves, and leaves a half 0.4-1.1 σ² above its noise).  What one input cannot show apart from a
-        # loop shape (a lag on triangles of one rate) is not ruled out by `none`, and the verdict says so.
-        # The effect's MPI model is not delivered: fitted with the MPI weights it takes up their
-        # loop-shape error too (the plain fit is, as for an `unexplained` verdict)
+        # model alone fits its halves).  An effect is named only when it too brings each half to its
+        # noise: one input shows an effect and a loop shape together, and creep on triangles of one rate
+        # bends the loops as a shape does (seeds 4 and 40, Preisach actuators with a lag and without an
+        # effect: creep removes most of what the model alone leaves, and leaves a half 0.4-1.1 σ² above
+        # its noise).  It replaces a named cause as on two records: only where the named set holds none
+        # of its causes (outside-class 29, 60, 85: lags named creep or an input low-pass, whose models
+        # leave the record over 3 σ² above its noise; on the general model the lag alone takes each half
+        # to its noise, and the lag's model predicts a third input better than the named one's).  What one input
+        # cannot show apart from a loop shape (a lag on triangles of one rate) is not ruled out by `none`,
+        # and the verdict says so.  Where the verdict was `unexplained`, the effect's MPI model is not
+        # delivered: fitted with the MPI weights it takes up their loop-shape error too (the plain fit
+        # is, as for an `unexplained` verdict)
         on_halves = "the record's two halves"
-        if named == "unexplained":
-            fits = effects_on_halves(self.v, self.y, self.T, stop_at_noise=True)
-        else:
-            fits = {"none": fit_on_halves(self.v, self.y, self.T)}   # only `none` may replace a name
+        named_set = tuple(self.verdict["causes"]) or (named,)
+        fits = effects_on_halves(self.v, self.y, self.T, stop_at_noise=True)
         said = verdict_on_both_records(fits, on_halves)
         asked_because = ("" if named == "unexplained" else
-                         f"{', '.join(self.verdict['causes']) or named} "
-                         f"{'was' if len(self.verdict['causes']) <= 1 else 'were'} named, but {named}'s model "
-                         f"leaves the record {named_left:.3g} σ² above its noise, and ")
+                         f"{', '.join(named_set)} {'was' if len(named_set) == 1 else 'were'} named, but {named}'s "
+                         f"model leaves the record {named_left:.3g} σ² above its noise, and ")
         if said["cause"] not in (None, "none") and max(fits[said["cause"]].mse_sigma2) > 1.0 + NOISE_FRACTION:
             said = dict(said, cause=None, causes=(), sentence=(
                 f"{said['sentence']}, but with it the halves stand at " + " and ".join(
                     f"{m:.3g}" for m in fits[said["cause"]].mse_sigma2) + " of their noise: on one record an effect "
                 "is named there only when it explains both halves to their noise, as a loop shape bends them too"))
-        if named != "unexplained" and not (said["cause"] == "none"
-                                           and said["left_sigma2"]["none"] <= NEAR_NOISE_FRACTION):
-            said = dict(said, cause=None, causes=(), sentence=(
-                f"the general model alone, fitted on {on_halves}, leaves "
-                + " and ".join(f"{m:.3g}" for m in fits["none"].mse_sigma2) + " of their noise: the name stands"))
+        if named != "unexplained":
+            # a set that holds the name already changes nothing; `none` replaces a cause only where the
+            # model alone leaves nothing for it
+            if said["cause"] == "none" and said["left_sigma2"]["none"] > NEAR_NOISE_FRACTION:
+                said = dict(said, cause=None, causes=(), sentence=(
+                    f"{said['sentence']}, but it leaves {said['left_sigma2']['none']:.3g} σ² above it over both, "
+                    f"more than the {NEAR_NOISE_FRACTION} σ² that would leave nothing for {named}: the name stands"))
+            elif said["cause"] is None or set(named_set) & set(said["causes"]):
+                said = dict(said, cause=None, causes=(), sentence=f"{said['sentence']}: the name stands")
         self.general_model = {"fitted_on": on_halves, "cause": said["cause"],
                               "causes": list(said["causes"]), "left_sigma2": said["left_sigma2"]}
         if said["cause"] is None:
             self.halves_sentence = asked_because + said["sentence"]
             return
         named_now = said["cause"]
-        self.halves_named = named_now != "none"
+        # the plain fit stands in for an effect only where the MPI models left the record unexplained
+        self.plain_fit_for_halves_effect = named_now != "none" and named == "unexplained"
         self.verdict = {**self.verdict, "cause": named_now, "causes": said["causes"],
                         "best": None if named_now == "none" else named_now, "explained_share": 0.0, "text": ""}
         caveat = ("; an effect that this one input cannot show apart from a loop shape (a lag or a delay on an input "
                   "of one rate) is not ruled out: `pysim excite RECORD --causes rate_dependence,delay --out rates.csv` "
-                  "writes sines of several frequencies to play and give as a second record (`--validate`)" if named_now
-                  == "none" else "; the model delivered is the plain fit: the MPI models leave the record "
-                  f"unexplained, and {named_now}'s MPI model, fitted with their weights, takes up their loop-shape "
-                  "error too")
+                  "writes sines of several frequencies to play and give as a second record (`--validate`)"
+                  if named_now == "none" else
+                  "; the model delivered is the plain fit: the MPI models leave the record unexplained, and "
+                  f"{named_now}'s MPI model, fitted with their weights, takes up their loop-shape error too"
+                  if self.plain_fit_for_halves_effect else "")
         self.halves_sentence = asked_because + said["sentence"] + caveat
 
     def _choose_model_delivered(self):
@@ -1151,7 +1161,7 @@ class _DiagnosisRun:
                            cv_prediction_um=baseline.cv_prediction_um, character=baseline.character,
                            validation=baseline.validation)
         candidates = self.candidates
-        extended = (plain if self.halves_named else candidates[cause] if cause in EFFECTS else
+        extended = (plain if self.plain_fit_for_halves_effect else candidates[cause] if cause in EFFECTS else
                     candidates[self.verdict["best"]] if cause == "unexplained" and self.verdict["best"] is not None
                     else plain)
         self.unexplained_sentence = ""
