@@ -193,6 +193,19 @@ NO_CREEP_WEIGHT = 1e-9
 GENERAL_MODEL_JUDGES = ("rate_dependence", "delay", "creep", "rate_dependent_hysteresis")
 
 
+def _name_stands(said: dict, named: str, named_set: tuple) -> bool:
+    """Whether a verdict the MPI models named (a cause, or ``none``) stands against what the general
+    model said (:func:`pysim.diagnosis.preisach.verdict_on_both_records`): nothing decisive, or a set
+    that holds the name already, changes nothing; ``none`` replaces a cause only where the model alone
+    leaves nothing for it (under ``NEAR_NOISE_FRACTION`` σ²), and never replaces ``none``.  An
+    ``unexplained`` verdict never stands against it."""
+    if named == "unexplained":
+        return False
+    if said["cause"] == "none":
+        return named == "none" or said["left_sigma2"]["none"] > NEAR_NOISE_FRACTION
+    return said["cause"] is None or bool(set(named_set) & set(said["causes"]))
+
+
 def _general_model_can_judge(evaluation) -> bool:
     """Whether the general model on both records (:mod:`pysim.diagnosis.preisach`) holds the
     structure of a named cause: a lag (not a second-order stage), a delay, creep, an input low-pass.
@@ -1028,12 +1041,7 @@ class _DiagnosisRun:
         # a decisive effect; an MPI actuator without one fits the second record within 1 σ² and is
         # never asked
         said = verdict_on_both_records(effects_on_both_records(v, y, T, v2, y2, T, stop_at_noise=True))
-        # what stands of a verdict the MPI models named: nothing decisive, or a set that holds the name
-        # already, changes nothing; `none` only replaces a cause where the model alone leaves nothing
-        keeps_name = said["cause"] is None or bool(set(named_set) & set(said["causes"]))
-        none_too_weak = said["cause"] == "none" and (named_before == "none"
-                                                     or said["left_sigma2"]["none"] > NEAR_NOISE_FRACTION)
-        if named_before != "unexplained" and (keeps_name or none_too_weak):
+        if _name_stands(said, named_before, named_set):
             said = dict(said, cause=None)
         if said["cause"] is not None:
             general = said["sentence"]
@@ -1125,15 +1133,11 @@ class _DiagnosisRun:
                 f"{said['sentence']}, but with it the halves stand at " + " and ".join(
                     f"{m:.3g}" for m in fits[said["cause"]].mse_sigma2) + " of their noise: on one record an effect "
                 "is named there only when it explains both halves to their noise, as a loop shape bends them too"))
-        if named != "unexplained":
-            # a set that holds the name already changes nothing; `none` replaces a cause only where the
-            # model alone leaves nothing for it
-            if said["cause"] == "none" and said["left_sigma2"]["none"] > NEAR_NOISE_FRACTION:
-                said = dict(said, cause=None, causes=(), sentence=(
-                    f"{said['sentence']}, but it leaves {said['left_sigma2']['none']:.3g} σ² above it over both, "
-                    f"more than the {NEAR_NOISE_FRACTION} σ² that would leave nothing for {named}: the name stands"))
-            elif said["cause"] is None or set(named_set) & set(said["causes"]):
-                said = dict(said, cause=None, causes=(), sentence=f"{said['sentence']}: the name stands")
+        if _name_stands(said, named, named_set):
+            said = dict(said, cause=None, causes=(), sentence=(
+                f"{said['sentence']}, but it leaves {said['left_sigma2']['none']:.3g} σ² above it over both, "
+                f"more than the {NEAR_NOISE_FRACTION} σ² that would leave nothing for {named}: the name stands"
+                if said["cause"] == "none" else f"{said['sentence']}: the name stands"))
         self.general_model = {"fitted_on": on_halves, "cause": said["cause"],
                               "causes": list(said["causes"]), "left_sigma2": said["left_sigma2"]}
         if said["cause"] is None:

@@ -230,51 +230,53 @@ def _fit(designs, displacements_um, effect, parameter, nonnegative=(), shared_se
     offset for both (``nonnegative``: columns whose weights stay >= 0)."""
     A1, A2 = (np.ascontiguousarray(A) for A in designs)
     y1, y2 = displacements_um
-    if shared_sensor:
-        # one sensor: a single offset column, and nothing to search
-        A = np.vstack([np.hstack([A1, np.ones((A1.shape[0], 1))]), np.hstack([A2, np.ones((A2.shape[0], 1))])])
-        weights = _solve(A.T @ A, A.T @ np.r_[y1, y2], nonnegative)
-        e1 = y1 - A[:y1.size] @ weights
-        e2 = y2 - A[y1.size:] @ weights
-        noise = (record_noise_sigma(e1, y1), record_noise_sigma(e2, y2))
-        mse = tuple(float(np.mean(e**2) / s**2) for e, s in zip((e1, e2), noise))
-        return JointFit(effect, parameter, mse, noise, (y1.size, y2.size), 1.0, 0.0, weights[:-1])
     # the normal equations' parts, computed once: for a fixed gain g of the second record,
     # [A1 1 0; g A2 0 1] [w; c1; c2] = [y1; y2] is linear in the weights and both offsets
     G1, G2 = A1.T @ A1, A2.T @ A2
     s1, s2 = A1.sum(axis=0), A2.sum(axis=0)
     b1, b2 = A1.T @ y1, A2.T @ y2
     n1, n2 = float(y1.size), float(y2.size)
+    m = G1.shape[0]
 
-    yy = float(y1 @ y1 + y2 @ y2)
+    if shared_sensor:
+        # one sensor: [A1 1; A2 1] [w; c] = [y1; y2], one offset and no gain to search
+        gram = np.zeros((m + 1, m + 1))
+        gram[:m, :m] = G1 + G2
+        gram[:m, m] = gram[m, :m] = s1 + s2
+        gram[m, m] = n1 + n2
+        weights = _solve(gram, np.r_[b1 + b2, y1.sum() + y2.sum()], nonnegative)
+        gain, offsets = 1.0, (weights[-1], weights[-1])
+        weights = weights[:-1]
+    else:
+        yy = float(y1 @ y1 + y2 @ y2)
 
-    def normal_equations(gain):
-        m = G1.shape[0]
-        gram = np.zeros((m + 2, m + 2))
-        gram[:m, :m] = G1 + gain**2 * G2
-        gram[:m, m], gram[:m, m + 1] = s1, gain * s2
-        gram[m, :m], gram[m + 1, :m] = s1, gain * s2
-        gram[m, m], gram[m + 1, m + 1] = n1, n2
-        return gram, np.r_[b1 + gain * b2, y1.sum(), y2.sum()]
+        def normal_equations(gain):
+            gram = np.zeros((m + 2, m + 2))
+            gram[:m, :m] = G1 + gain**2 * G2
+            gram[:m, m], gram[:m, m + 1] = s1, gain * s2
+            gram[m, :m], gram[m + 1, :m] = s1, gain * s2
+            gram[m, m], gram[m + 1, m + 1] = n1, n2
+            return gram, np.r_[b1 + gain * b2, y1.sum(), y2.sum()]
 
-    def squared_error(gain):
-        # from the normal equations alone: |y - B w|² = y'y - 2 w'B'y + w'B'B w
-        gram, rhs = normal_equations(gain)
-        w = _solve(gram, rhs, nonnegative)
-        return yy - 2.0 * w @ rhs + w @ gram @ w
+        def squared_error(gain):
+            # from the normal equations alone: |y - B w|² = y'y - 2 w'B'y + w'B'B w
+            gram, rhs = normal_equations(gain)
+            w = _solve(gram, rhs, nonnegative)
+            return yy - 2.0 * w @ rhs + w @ gram @ w
 
-    # the gain profiled out: the weights follow it exactly (alternating the two converges slowly,
-    # as the weights of both records compromise at every pass)
-    gain = float(scipy.optimize.minimize_scalar(squared_error, bounds=GAIN_BOUNDS, method="bounded",
-                                                options={"xatol": 1e-5}).x)
-    weights = _solve(*normal_equations(gain), nonnegative)
-    e1 = y1 - A1 @ weights[:-2] - weights[-2]
-    e2 = y2 - gain * (A2 @ weights[:-2]) - weights[-1]
+        # the gain profiled out: the weights follow it exactly (alternating the two converges slowly,
+        # as the weights of both records compromise at every pass)
+        gain = float(scipy.optimize.minimize_scalar(squared_error, bounds=GAIN_BOUNDS, method="bounded",
+                                                    options={"xatol": 1e-5}).x)
+        weights = _solve(*normal_equations(gain), nonnegative)
+        offsets, weights = (weights[-2], weights[-1]), weights[:-2]
+    e1 = y1 - A1 @ weights - offsets[0]
+    e2 = y2 - gain * (A2 @ weights) - offsets[1]
     noise = (record_noise_sigma(e1, y1), record_noise_sigma(e2, y2))
     mse = tuple(float(np.mean(e**2) / s**2) for e, s in zip((e1, e2), noise))
     # y2 = g (A2 w + c1) + (c2 - g c1): the second record's offset against the first's, scaled
-    return JointFit(effect, parameter, mse, noise, (y1.size, y2.size), gain, float(weights[-1] - gain * weights[-2]),
-                    weights[:-2])
+    return JointFit(effect, parameter, mse, noise, (y1.size, y2.size), gain, float(offsets[1] - gain * offsets[0]),
+                    weights)
 
 
 #: Effects tried before the hysteresis on the general model, with the catalogue's input stage that runs each.
@@ -315,16 +317,16 @@ class _BothRecords:
             half = self.v[0].size // 2
             self.record_of = (0, 0)
             self.usable = (usable[0][usable[0] < half], usable[0][usable[0] >= half])
-            self.part_s = (half * self.T[0], (self.v[0].size - half) * self.T[0])
+            part_samples = (half, self.v[0].size - half)
         else:
             self.record_of = (0, 1)
             self.usable = tuple(usable)
-            self.part_s = tuple(v.size * T for v, T in zip(self.v, self.T))
+            part_samples = tuple(v.size for v in self.v)
+        self.part_s = tuple(n * self.T[r] for n, r in zip(part_samples, self.record_of))
         # creep may only trail the input in the direction of the actuator's gain (the catalogue's
         # admissible creep: non-negative weights on the modes' lag behind the input)
         self.gain_sign = gain_sign(self.v[0], self.y[0])
-        shortest = min(round(span / T) for span, T in zip(self.part_s, (self.T[r] for r in self.record_of)))
-        self.creep_time_constants_s = creep_time_constants_s(shortest, max(self.T))
+        self.creep_time_constants_s = creep_time_constants_s(min(part_samples), max(self.T))
         self._plain = {}            # the model alone, on the search rows and on all (creep starts from it)
 
     def _with_bouc_wen(self, preisach_design, voltage_V, rows=slice(None)) -> np.ndarray:
