@@ -1157,25 +1157,29 @@ class _DiagnosisRun:
         fits = effects_on_halves(self.v, self.y, self.T, stop_at_noise=True)
         self.halves_fits = fits
         said = verdict_on_both_records(fits, on_halves)
-        asked_because = ("" if named == "unexplained" else
-                         f"nothing was named, but the plain fit leaves the record's held-out samples {plain_left:.3g} "
-                         "σ² above its noise, and " if named == "none" else
-                         f"{', '.join(named_set)} {'was' if len(named_set) == 1 else 'were'} named, but the general "
-                         "model with creep, fitted on the record's halves, puts no weight on any creep mode, and "
-                         if creep_unseen else
-                         f"{', '.join(named_set)} {'was' if len(named_set) == 1 else 'were'} named, but {named}'s "
-                         f"model leaves the record {named_left:.3g} σ² above its noise, and ")
+        if named == "unexplained":
+            asked_because = ""
+        elif named == "none":
+            asked_because = (f"nothing was named, but the plain fit leaves the record's held-out samples "
+                             f"{plain_left:.3g} σ² above its noise, and ")
+        else:
+            asked_because = f"{', '.join(named_set)} {'was' if len(named_set) == 1 else 'were'} named, but " + (
+                "the general model with creep, fitted on the record's halves, puts no weight on any creep mode, "
+                "and " if creep_unseen else f"{named}'s model leaves the record {named_left:.3g} σ² above its noise, and ")
         if said["cause"] not in (None, "none") and max(fits[said["cause"]].mse_sigma2) > 1.0 + NOISE_FRACTION:
             said = dict(said, cause=None, causes=(), sentence=(
                 f"{said['sentence']}, but with it the halves stand at " + " and ".join(
                     f"{m:.3g}" for m in fits[said["cause"]].mse_sigma2) + " of their noise: on one record an effect "
                 "is named there only when it explains both halves to their noise, as a loop shape bends them too"))
         if _name_stands(said, named, named_set):
-            said = dict(said, cause=None, causes=(), sentence=(
-                f"{said['sentence']}, but it leaves {said['left_sigma2']['none']:.3g} σ² above it over both, "
-                f"more than the {NEAR_NOISE_FRACTION} σ² that would leave nothing for {named}: the name stands"
-                if said["cause"] == "none" and named != "none" else
-                f"{said['sentence']}: nothing is named" if named == "none" else f"{said['sentence']}: the name stands"))
+            if named == "none":
+                stands = ": nothing is named"
+            elif said["cause"] == "none":
+                stands = (f", but it leaves {said['left_sigma2']['none']:.3g} σ² above it over both, more than the "
+                          f"{NEAR_NOISE_FRACTION} σ² that would leave nothing for {named}: the name stands")
+            else:
+                stands = ": the name stands"
+            said = dict(said, cause=None, causes=(), sentence=said["sentence"] + stands)
         self.general_model = {"fitted_on": on_halves, "cause": said["cause"],
                               "causes": list(said["causes"]), "left_sigma2": said["left_sigma2"]}
         if said["cause"] is None:
