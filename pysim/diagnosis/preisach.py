@@ -66,6 +66,7 @@ from pysim.diagnosis.rules import DECISIVE_SHARE, NOISE_FRACTION, TIE_FRACTION, 
 from pysim.identification.identify import operator_bounds
 
 __all__ = ["N_THRESHOLDS", "N_LEVELS", "HYSTERESIS_COLUMNS", "KNOWN_SHARE", "JointFit", "preisach_columns",
+           "GeneralModelParts",
            "fit_both_records", "creep_on_both_records", "effects_on_both_records", "effects_on_halves",
            "fit_on_halves", "creep_on_halves", "verdict_on_both_records"]
 
@@ -283,9 +284,25 @@ def _fit(designs, displacements_um, effect, parameter, nonnegative=(), shared_se
 INPUT_EFFECTS = {"rate_dependent_hysteresis": "lowpass", "slew_limit": "slew_limit"}
 
 
-class _BothRecords:
-    """Two records prepared once (thresholds, operator outputs, usable rows), or one record's two
-    halves (:meth:`halves`): the parts the model is scored on, each a record's rows."""
+class GeneralModelParts:
+    """Two records prepared once for the general model (thresholds, operator outputs, usable rows),
+    or one record's two halves (:meth:`halves`): the parts the model is scored on, each a record's
+    rows.  The model alone and with creep are kept once fitted: asking for creep and then for every
+    effect fits creep once.  Parameters as :func:`fit_both_records` (each record's voltage, V,
+    displacement, µm, and sample period, s).
+
+    Examples
+    --------
+    One record's halves, fitted with creep and then with every effect: the creep fit is made once.
+
+    >>> rng = np.random.default_rng(4)
+    >>> t = np.arange(6000) / 1000.0
+    >>> v = np.repeat(rng.uniform(5, 95, 12), 500)
+    >>> y = 0.2 * operator_bounds(v, [0.0, 10.0, 25.0], "osp", 0.0)[0].sum(axis=1) + rng.normal(0, 0.05, t.size)
+    >>> parts = GeneralModelParts.halves(v, y, 1e-3)
+    >>> parts.fit("creep") is parts.effects()["creep"]
+    True
+    """
 
     def __init__(self, v1, y1, period1_s, v2, y2, period2_s):
         self._prepare(((v1, y1, period1_s), (v2, y2, period2_s)), KNOWN_SHARE, halves=False)
@@ -328,6 +345,7 @@ class _BothRecords:
         self.gain_sign = gain_sign(self.v[0], self.y[0])
         self.creep_time_constants_s = creep_time_constants_s(min(part_samples), max(self.T))
         self._plain = {}            # the model alone, on the search rows and on all (creep starts from it)
+        self._crept = {}            # the model with creep, likewise
 
     def _with_bouc_wen(self, preisach_design, voltage_V, rows=slice(None)) -> np.ndarray:
         """The Preisach columns (on ``rows``) with the Bouc-Wen bank's outputs beside them."""
@@ -357,7 +375,9 @@ class _BothRecords:
             designs = [OutputStages(delay_samples=max(parameter / T, 0.0)).apply_to_columns(A)
                        for A, T in zip(self.A, self.T)]
         elif effect == "creep":
-            return self._creep(rows)
+            if search not in self._crept:
+                self._crept[search] = self._creep(rows)
+            return self._crept[search]
         elif effect in INPUT_EFFECTS:
             # the operators see the stage's output: their paths (and the rows they fix) change
             staged = [apply_input_stage(INPUT_EFFECTS[effect], parameter, v, T) for v, T in zip(self.v, self.T)]
@@ -418,6 +438,26 @@ class _BothRecords:
                                                bounds=(lo, hi), method="bounded", options={"xatol": 0.05})
         return self.fit(effect, math.exp(found.x) if found.fun < fits[k].excess_sigma2 else grid[k])
 
+    def effects(self, stop_at_noise: bool = False) -> dict:
+        """The model alone (``"none"``) and with each effect it holds, as
+        :func:`effects_on_both_records` (``stop_at_noise`` likewise)."""
+        alone = self.fit()
+        if stop_at_noise and _within_noise(alone):
+            return {"none": alone}
+        period = max(self.T)
+        shortest = min(self.part_s)
+        slowest_lag_s = min(300.0 * period, shortest / 20)
+        fastest_V_per_s = max(float(np.max(np.abs(np.diff(v)))) / T for v, T in zip(self.v, self.T))
+        fits = {"none": alone,
+                "rate_dependence": self.searched("rate_dependence", 0.05 * min(self.T), slowest_lag_s),
+                "delay": self.searched("delay", 0.1 * min(self.T), 10.0 * period),
+                "creep": self.fit("creep"),
+                "rate_dependent_hysteresis": self.searched("rate_dependent_hysteresis", 0.05 * min(self.T),
+                                                           slowest_lag_s)}
+        if fastest_V_per_s > 0:
+            fits["slew_limit"] = self.searched("slew_limit", fastest_V_per_s / 40.0, fastest_V_per_s)
+        return fits
+
 
 def fit_both_records(v1, y1, period1_s, v2, y2, period2_s) -> JointFit:
     """The general rate-independent model fitted on both records together.
@@ -452,7 +492,7 @@ def fit_both_records(v1, y1, period1_s, v2, y2, period2_s) -> JointFit:
     >>> bool(max(fit.mse_sigma2) < 1.0 + NOISE_FRACTION)
     True
     """
-    return _BothRecords(v1, y1, period1_s, v2, y2, period2_s).fit()
+    return GeneralModelParts(v1, y1, period1_s, v2, y2, period2_s).fit()
 
 
 def creep_on_both_records(v1, y1, period1_s, v2, y2, period2_s) -> JointFit:
@@ -495,7 +535,7 @@ def creep_on_both_records(v1, y1, period1_s, v2, y2, period2_s) -> JointFit:
     >>> fit.creep["driven_by"], round(sum(fit.creep["weights"]), 2)
     ('displacement', 0.08)
     """
-    return _BothRecords(v1, y1, period1_s, v2, y2, period2_s).fit("creep")
+    return GeneralModelParts(v1, y1, period1_s, v2, y2, period2_s).fit("creep")
 
 
 def _within_noise(fit: JointFit) -> bool:
@@ -553,27 +593,7 @@ def effects_on_both_records(v1, y1, period1_s, v2, y2, period2_s, *, stop_at_noi
     ...                                stop_at_noise=True))
     ['none']
     """
-    return _effects(_BothRecords(v1, y1, period1_s, v2, y2, period2_s), stop_at_noise)
-
-
-def _effects(both: _BothRecords, stop_at_noise: bool) -> dict:
-    """The model alone and with each effect, on two records or one record's halves."""
-    alone = both.fit()
-    if stop_at_noise and _within_noise(alone):
-        return {"none": alone}
-    period = max(both.T)
-    shortest = min(both.part_s)
-    slowest_lag_s = min(300.0 * period, shortest / 20)
-    fastest_V_per_s = max(float(np.max(np.abs(np.diff(v)))) / T for v, T in zip(both.v, both.T))
-    fits = {"none": alone,
-            "rate_dependence": both.searched("rate_dependence", 0.05 * min(both.T), slowest_lag_s),
-            "delay": both.searched("delay", 0.1 * min(both.T), 10.0 * period),
-            "creep": both.fit("creep"),
-            "rate_dependent_hysteresis": both.searched("rate_dependent_hysteresis", 0.05 * min(both.T),
-                                                       slowest_lag_s)}
-    if fastest_V_per_s > 0:
-        fits["slew_limit"] = both.searched("slew_limit", fastest_V_per_s / 40.0, fastest_V_per_s)
-    return fits
+    return GeneralModelParts(v1, y1, period1_s, v2, y2, period2_s).effects(stop_at_noise)
 
 
 def effects_on_halves(voltage_V, displacement_um, period_s, *, stop_at_noise: bool = False) -> dict:
@@ -622,7 +642,7 @@ def effects_on_halves(voltage_V, displacement_um, period_s, *, stop_at_noise: bo
     >>> verdict_on_both_records(fits, "the record's two halves")["cause"] == "none"
     False
     """
-    return _effects(_BothRecords.halves(voltage_V, displacement_um, period_s), stop_at_noise)
+    return GeneralModelParts.halves(voltage_V, displacement_um, period_s).effects(stop_at_noise)
 
 
 def fit_on_halves(voltage_V, displacement_um, period_s) -> JointFit:
@@ -650,7 +670,7 @@ def fit_on_halves(voltage_V, displacement_um, period_s) -> JointFit:
     >>> bool(max(fit.mse_sigma2) < 1.0 + NOISE_FRACTION), fit.samples[0] < fit.samples[1]
     (True, True)
     """
-    return _BothRecords.halves(voltage_V, displacement_um, period_s).fit()
+    return GeneralModelParts.halves(voltage_V, displacement_um, period_s).fit()
 
 
 def creep_on_halves(voltage_V, displacement_um, period_s) -> JointFit:
@@ -679,7 +699,7 @@ def creep_on_halves(voltage_V, displacement_um, period_s) -> JointFit:
     >>> max(creep_on_halves(v, h + noise, 1e-3).creep["weights"]) < 1e-3
     True
     """
-    return _BothRecords.halves(voltage_V, displacement_um, period_s).fit("creep")
+    return GeneralModelParts.halves(voltage_V, displacement_um, period_s).fit("creep")
 
 
 def verdict_on_both_records(fits: dict, records: str = "both records") -> dict:

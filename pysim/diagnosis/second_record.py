@@ -394,7 +394,7 @@ def creep_modes_of_general_model(fitter: CandidateFitter, run, extended: Evaluat
     """``(evaluation, sentence)``: creep's model with its modes (time constants and shares) from
     the general rate-independent model fitted on both records
     (:func:`pysim.diagnosis.preisach.creep_on_both_records`), or on one record's two halves
-    (``v2`` None and ``general`` the creep fit of :func:`pysim.diagnosis.preisach.effects_on_halves`),
+    (``v2`` None and ``general`` the creep fit of :func:`pysim.diagnosis.preisach.creep_on_halves`),
     and its MPI weights fitted on the first record; None when the general model's creep is driven
     by the input, is not admissible (shares summing above ``MAX_CREEP_SHARE``), or leaves a record
     (a half) more than ``UNEXPLAINED_LEVEL`` σ² above its noise (it is then no better a model of
