@@ -1868,10 +1868,11 @@ def test_a_general_rate_independent_model_on_both_records_tells_a_loop_shape_fro
 def test_a_named_cause_whose_model_misses_the_second_record_is_judged_by_the_general_model():
     """Truth: outside-class seed 60, a Preisach actuator with a 2 ms lag.  The MPI models name an
     input low-pass first (alone, or with creep as a look-alike: the same code gave the one in an
-    earlier CI run and the other in a later fresh install), whose model, fitted on the first record, leaves the second far
-    above its noise: the general model on both records, which holds a lag and an input low-pass
-    alike, leaves 0.03 σ² with the lag and 21 σ² with the input low-pass, so the lag is named, and
-    the third record (never given) is predicted better than by the plain fit."""
+    earlier CI run and the other in a later fresh install), whose model, fitted on the first
+    record, leaves the second far above its noise: the general model on both records, which holds
+    a lag and an input low-pass alike, leaves 0.03 σ² with the lag and 21 σ² with the input
+    low-pass, so the lag is named, and the third record (never given) is predicted better than by
+    the plain fit."""
     pair, d = _diagnose_outside_pair(60, "preisach", "lag")
     assert d.causes == ("rate_dependence",) and d.validation["verdict_by"] == "general model on both records", d.why
     assert re.search(r"rate_dependent_hysteresis(, creep)? (was|were) named, but rate_dependent_hysteresis's model, "
