@@ -181,6 +181,21 @@ _STEPS_ALONE = ("{first} shows an effect only in its responses to steps, and {se
 #: verdict is put to the general model on both records: an error as large as the noise itself.
 PLAIN_MISS_LEVEL = 1.0
 
+def _named_but(named: str, named_set) -> str:
+    """The start of a sentence on a verdict put to the general model: what was named, "but" (" "
+    ends it, the reason follows)."""
+    if named == "none":
+        return "nothing was named, but "
+    return f"{', '.join(named_set)} {'was' if len(named_set) == 1 else 'were'} named, but "
+
+
+def _verdict_named_by_general_model(verdict: dict, said: dict) -> dict:
+    """``verdict`` with the cause and set the general model named (:func:`verdict_on_both_records`)."""
+    named_now = said["cause"]
+    return {**verdict, "cause": named_now, "causes": said["causes"],
+            "best": None if named_now == "none" else named_now, "explained_share": 0.0, "text": ""}
+
+
 def _left_on_second_record(evaluation, validation) -> float:
     """What a model fitted on the first record leaves on the second above its noise (σ²); 0 when
     there is no second record or no score there."""
@@ -993,7 +1008,7 @@ class _DiagnosisRun:
         diagnosis when the second record, fitted in its turn, names an effect; else None)."""
         self.general, self.general_creep = "", None
         verdict, validation, baseline = self.verdict, self.validation, self.baseline
-        named_before, named_set = verdict["cause"], tuple(verdict["causes"])
+        named_before = verdict["cause"]
         self.named_before = named_before
         if not self.has_second:
             self._ask_general_model_on_halves()
@@ -1013,14 +1028,14 @@ class _DiagnosisRun:
                                                            second=self.validate_source or "the second record"))
             if turned is not None and turned.cause in EFFECTS:
                 return self._reported(turned)
-    # named creep: the general model with creep on both records, fitted once (it gives the model
-    # delivered its modes, below); when it puts no weight on any mode, the richest model sees no creep
-    # in either record, and the name is put to it (outside-class seed 73: a Bouc-Wen actuator without
-    # an effect, named creep by the MPI models, whose model carries to the second record; every
-    # creep record of seeds 0-146 gets modes of 2-13 % there, and so does every in-class one tried)
-        v, y, T, v2, y2 = self.v, self.y, self.T, self.v2, self.y2
         if validation is None or self.unidentified:
             return None
+        # named creep: the general model with creep on both records, fitted once (it gives the model
+        # delivered its modes, below); when it puts no weight on any mode, the richest model sees no creep
+        # in either record, and the name is put to it (outside-class seed 73: a Bouc-Wen actuator without
+        # an effect, named creep by the MPI models, whose model carries to the second record; every
+        # creep record of seeds 0-146 gets modes of 2-13 % there, and so does every in-class one tried)
+        v, y, T, v2, y2 = self.v, self.y, self.T, self.v2, self.y2
         both = GeneralModelParts(v, y, T, v2, y2, T) if named_before == "creep" else None
         general_creep = both.fit("creep") if both is not None else None
         self.general_creep = general_creep
@@ -1028,6 +1043,19 @@ class _DiagnosisRun:
         if not (named_before == "unexplained" or none_asked or creep_unseen
                 or (named_left >= UNEXPLAINED_LEVEL and _general_model_can_judge(self.candidates[named_before]))):
             return None
+        if named_before == "none":
+            reason = f"the plain fit of the first record leaves the second {plain_left:.3g} σ² above its noise"
+        elif creep_unseen:
+            reason = "the general model with creep, fitted on both records, puts no weight on any creep mode"
+        else:
+            reason = (f"{named_before}'s model, fitted on the first record, leaves the second "
+                      f"{named_left:.3g} σ² above its noise")
+        self._judge_by_general_model_on_both(both or GeneralModelParts(v, y, T, v2, y2, T), reason)
+        return None
+
+    def _judge_by_general_model_on_both(self, parts: GeneralModelParts, reason: str):
+        """The verdict put to the general model fitted on both records (``parts``); ``reason`` says why
+        it was asked (not used for an ``unexplained`` verdict)."""
         # the MPI models leave the records unexplained, or the named cause's model leaves the second
         # record far above its noise: an effect outside what they can show, or their loop shape (a
         # Preisach actuator's minor loops are not congruent, and no MPI model carries from one input
@@ -1053,52 +1081,33 @@ class _DiagnosisRun:
         # noise; on the general model creep takes 0.56-7.1 σ² to the noise).  It is replaced only by
         # a decisive effect; an MPI actuator without one fits the second record within 1 σ² and is
         # never asked
-        said = verdict_on_both_records((both or GeneralModelParts(v, y, T, v2, y2, T)).effects(stop_at_noise=True))
+        verdict, validation = self.verdict, self.validation
+        named_before, named_set = verdict["cause"], tuple(verdict["causes"])
+        said = verdict_on_both_records(parts.effects(stop_at_noise=True))
         if _name_stands(said, named_before, named_set):
             said = dict(said, cause=None)
-        if said["cause"] is not None:
-            general = said["sentence"]
-            if named_before == "none":
-                general = (f"nothing was named, but the plain fit of the first record leaves the second "
-                           f"{plain_left:.3g} σ² above its noise, and {general}")
-            elif creep_unseen:
-                general = (f"{', '.join(named_set)} {'was' if len(named_set) == 1 else 'were'} named, but "
-                           "the general model with creep, fitted on both records, puts no weight on any creep "
-                           f"mode, and {general}")
-            elif named_before != "unexplained":
-                general = (f"{', '.join(named_set)} {'was' if len(named_set) == 1 else 'were'} named, but "
-                           f"{named_before}'s model, fitted on the first record, leaves the second "
-                           f"{named_left:.3g} σ² above its noise, and {general}")
-            self.general = general
-            named_now = said["cause"]
-            self.verdict = {**verdict, "cause": named_now, "causes": said["causes"],
-                            "best": None if named_now == "none" else named_now, "explained_share": 0.0, "text": ""}
-            validation.update(cause=named_now, causes=list(said["causes"]),
-                              verdict_by="general model on both records",
-                              general_model_left_sigma2=said["left_sigma2"],
-                              note=f"{validation['note']}; {general}")
-            if validation.get("delivered") not in (None, *said["causes"]):
-                # a member delivered from the set named before that this verdict does not hold
-                validation.pop("delivered")
-                validation.pop("delivered_sigma2", None)
-            if named_now != "none" and len(said["causes"]) > 1:
-                self.verdict, self.delivery_remark = self._delivered_by_second_record(self.verdict)
-        elif named_before == "unexplained":
-            validation.update(general_model_left_sigma2=said["left_sigma2"],
-                              note=f"{validation['note']}; {said['sentence']}")
-        elif named_before == "none":
-            validation.update(general_model_left_sigma2=said["left_sigma2"],
-                              note=f"{validation['note']}; the plain fit of the first record leaves the second "
-                                   f"{plain_left:.3g} σ² above its noise, and {said['sentence']}: nothing is named")
-        else:
-            # the judgement is reported where it keeps the name too
-            asked_because = ("the general model with creep, fitted on both records, puts no weight on any creep "
-                             "mode" if creep_unseen else
-                             f"{named_before}'s model, fitted on the first record, leaves the second "
-                             f"{named_left:.3g} σ² above its noise")
-            validation.update(general_model_left_sigma2=said["left_sigma2"],
-                              note=f"{validation['note']}; {asked_because}, and {said['sentence']}: the name stands")
-        return None
+        if said["cause"] is None:
+            # the judgement is reported where it keeps the verdict too
+            ending = {"unexplained": "", "none": ": nothing is named"}.get(named_before, ": the name stands")
+            note = said["sentence"] if named_before == "unexplained" else f"{reason}, and {said['sentence']}{ending}"
+            validation.update(general_model_left_sigma2=said["left_sigma2"], note=f"{validation['note']}; {note}")
+            return
+        general = said["sentence"]
+        if named_before != "unexplained":
+            general = f"{_named_but(named_before, named_set)}{reason}, and {general}"
+        self.general = general
+        named_now = said["cause"]
+        self.verdict = _verdict_named_by_general_model(verdict, said)
+        validation.update(cause=named_now, causes=list(said["causes"]),
+                          verdict_by="general model on both records",
+                          general_model_left_sigma2=said["left_sigma2"],
+                          note=f"{validation['note']}; {general}")
+        if validation.get("delivered") not in (None, *said["causes"]):
+            # a member delivered from the set named before that this verdict does not hold
+            validation.pop("delivered")
+            validation.pop("delivered_sigma2", None)
+        if named_now != "none" and len(said["causes"]) > 1:
+            self.verdict, self.delivery_remark = self._delivered_by_second_record(self.verdict)
 
     def _ask_general_model_on_halves(self):
         """Without a second record, a verdict the MPI models cannot settle put to the general model
@@ -1149,6 +1158,19 @@ class _DiagnosisRun:
                 creep_unseen = max(self.halves_fits["creep"].creep["weights"]) <= NO_CREEP_WEIGHT
             if not (creep_unseen or creep_half_misses):
                 return
+        if named == "none":
+            reason = f"the plain fit leaves the record's held-out samples {plain_left:.3g} σ² above its noise"
+        elif creep_unseen:
+            reason = "the general model with creep, fitted on the record's halves, puts no weight on any creep mode"
+        else:
+            reason = f"{named}'s model leaves the record {named_left:.3g} σ² above its noise"
+        self._judge_by_general_model_on_halves(halves or GeneralModelParts.halves(self.v, self.y, self.T), reason,
+                                               creep_only_by_effect=creep_half_misses and not creep_unseen)
+
+    def _judge_by_general_model_on_halves(self, parts: GeneralModelParts, reason: str, creep_only_by_effect: bool):
+        """The verdict put to the general model fitted on the record and scored on its halves (``parts``);
+        ``reason`` says why it was asked (not used for an ``unexplained`` verdict).  With
+        ``creep_only_by_effect`` a named creep gives way only to another effect, never to ``none``."""
         # The MPI models leave the record unexplained, or the named cause's own model leaves it far above
         # its noise: an effect outside what they show, or their loop shape (outside the MPI class) that an
         # effect stands in for.  One rate-independent actuator of any Preisach or Bouc-Wen shape that
@@ -1169,27 +1191,20 @@ class _DiagnosisRun:
         # and the verdict says so.  Where the verdict was `unexplained`, the effect's MPI model is not
         # delivered: fitted with the MPI weights it takes up their loop-shape error too (the plain fit
         # is, as for an `unexplained` verdict)
+        named = self.verdict["cause"]
         on_halves = "the record's two halves"
         named_set = tuple(self.verdict["causes"]) or (() if named == "none" else (named,))
-        fits = (halves or GeneralModelParts.halves(self.v, self.y, self.T)).effects(stop_at_noise=True)
+        fits = parts.effects(stop_at_noise=True)
         # (creep's fit is kept for its modes where the model alone stopped at the noise)
         self.halves_fits = {**self.halves_fits, **fits}
         said = verdict_on_both_records(fits, on_halves)
-        if named == "unexplained":
-            asked_because = ""
-        elif named == "none":
-            asked_because = (f"nothing was named, but the plain fit leaves the record's held-out samples "
-                             f"{plain_left:.3g} σ² above its noise, and ")
-        else:
-            asked_because = f"{', '.join(named_set)} {'was' if len(named_set) == 1 else 'were'} named, but " + (
-                "the general model with creep, fitted on the record's halves, puts no weight on any creep mode, "
-                "and " if creep_unseen else f"{named}'s model leaves the record {named_left:.3g} σ² above its noise, and ")
+        asked_because = "" if named == "unexplained" else f"{_named_but(named, named_set)}{reason}, and "
         if said["cause"] not in (None, "none") and max(fits[said["cause"]].mse_sigma2) > 1.0 + NOISE_FRACTION:
             said = dict(said, cause=None, causes=(), sentence=(
                 f"{said['sentence']}, but with it the halves stand at " + " and ".join(
                     f"{m:.3g}" for m in fits[said["cause"]].mse_sigma2) + " of their noise: on one record an effect "
                 "is named there only when it explains both halves to their noise, as a loop shape bends them too"))
-        if creep_half_misses and not creep_unseen and said["cause"] == "none":
+        if creep_only_by_effect and said["cause"] == "none":
             said = dict(said, cause=None, causes=(), sentence=(
                 f"{said['sentence']}; but on one record the general model alone takes up creep as a loop shape "
                 "too: only another effect that brings each half to its noise would replace creep, and the name "
@@ -1211,8 +1226,7 @@ class _DiagnosisRun:
         named_now = said["cause"]
         # the plain fit stands in for an effect only where the MPI models left the record unexplained
         self.plain_fit_for_halves_effect = named_now != "none" and named == "unexplained"
-        self.verdict = {**self.verdict, "cause": named_now, "causes": said["causes"],
-                        "best": None if named_now == "none" else named_now, "explained_share": 0.0, "text": ""}
+        self.verdict = _verdict_named_by_general_model(self.verdict, said)
         caveat = ("; an effect that this one input cannot show apart from a loop shape (a lag or a delay on an input "
                   "of one rate) is not ruled out: `pysim excite RECORD --causes rate_dependence,delay --out rates.csv` "
                   "writes sines of several frequencies to play and give as a second record (`--validate`)"
@@ -1225,10 +1239,19 @@ class _DiagnosisRun:
     def _choose_model_delivered(self):
         """The model handed over: the named cause's (its creep modes from the general model, refitted
         on both records), or the plain fit where nothing tests the candidate or it predicts worse."""
-        cause, validation, baseline = self.verdict["cause"], self.validation, self.baseline
+        baseline = self.baseline
         plain = Evaluation(baseline.fit, baseline.rms_pct, baseline.max_pct, baseline.rms_um, baseline.train_rms_pct,
                            cv_prediction_um=baseline.cv_prediction_um, character=baseline.character,
                            validation=baseline.validation)
+        extended = self._named_model(plain)
+        extended = self._with_creep_modes_of_general_model(extended, plain)
+        extended = self._withheld_if_second_record_worse(extended, plain)
+        self.extended = self._refitted_on_both_records(extended, plain)
+
+    def _named_model(self, plain: Evaluation) -> Evaluation:
+        """The named cause's model; the best candidate's for an ``unexplained`` verdict tested on a
+        second record; else the plain fit."""
+        cause, validation = self.verdict["cause"], self.validation
         candidates = self.candidates
         extended = (plain if self.plain_fit_for_halves_effect else candidates[cause] if cause in EFFECTS else
                     candidates[self.verdict["best"]] if cause == "unexplained" and self.verdict["best"] is not None
@@ -1245,6 +1268,11 @@ class _DiagnosisRun:
                 "cause of the catalogue explains, and without a second record nothing tests how it predicts a new "
                 "input (give one: `--validate`, or `validate=` in Python)")
             extended = plain
+        return extended
+
+    def _with_creep_modes_of_general_model(self, extended: Evaluation, plain: Evaluation) -> Evaluation:
+        """A creep delivered with its modes from the general model, where that model can give them."""
+        validation = self.validation
         self.modes_sentence = ""
         # without a second record, the modes of the general model on the record's halves where that model
         # judged the verdict, or where creep's own model, fitted with the MPI weights, leaves the record's
@@ -1274,6 +1302,11 @@ class _DiagnosisRun:
                 if validation is not None:
                     validation.update(delivered_creep_modes="general model on both records",
                                       note=f"{validation['note']}; {self.modes_sentence}")
+        return extended
+
+    def _withheld_if_second_record_worse(self, extended: Evaluation, plain: Evaluation) -> Evaluation:
+        """The plain fit instead of an extension that predicts the second record worse than it."""
+        validation, baseline = self.validation, self.baseline
         self.withheld_sentence = ""
         # an extension fitted with its own hysteresis part may carry that part to a new input worse than
         # the plain fit does (operators the first record barely moves, a range it never reaches): one that
@@ -1292,6 +1325,11 @@ class _DiagnosisRun:
                               withheld_sigma2={extended.cause: misleads[0], "baseline": misleads[1]},
                               note=f"{validation['note']}; {self.withheld_sentence}")
             extended = plain
+        return extended
+
+    def _refitted_on_both_records(self, extended: Evaluation, plain: Evaluation) -> Evaluation:
+        """The model delivered refitted on both records, when that costs the first record nothing."""
+        validation = self.validation
         self.both_sentence = ""
         if validation is not None and extended is not plain and not self.unidentified and not self.shape:
             # the cause is named; what it predicts of a new input improves with all the data there is:
@@ -1311,7 +1349,7 @@ class _DiagnosisRun:
                                   delivered_second_rms_pct=second_rms_pct,
                                   note=f"{validation['note']}; {self.both_sentence}")
                 extended = replace(extended, fit=fit, train_rms_pct=first_rms_pct)
-        self.extended = extended
+        return extended
 
     def _explained(self) -> str:
         """The ``why`` of the verdict: how the cause was named, and every sentence a phase added."""

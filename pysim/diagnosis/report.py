@@ -359,17 +359,7 @@ def summary_markdown(d: Diagnosis) -> str:
         lines.append(f"| {label} | {mx:.3f} | {rms:.3f} |" + (f" {val:.3f} |" if val is not None else ""))
     lines += [
         "",
-        (f"Model delivered: the plain fit (`{d.withheld}`'s model predicts the second record worse)" if d.withheld
-         else (f"Model delivered: the plain fit (`{d.cause}` is named by the general model on the record's two "
-               "halves; its MPI model, fitted with the MPI weights, would carry their loop-shape error too)")
-         if d.extended.cause == "baseline" and (d.general_model or {}).get("cause") == d.cause != "none"
-         else f"Model delivered: the plain fit (no cause is named: `{d.cause}`)" if d.extended.cause == "baseline"
-         else f"Extended model: `{d.extended.cause}`; gain **{d.gain_pct:.1f} %** less cross-validated RMS error "
-         "than the baseline (`100 (1 − rms_after / rms_before)`)")
-        + (f"; on the responses to {d.steps['windows']} step(s) into holds, each left out of its fit, it removes "
-           f"**{100 * d.steps['removed_share'][d.extended.cause]:.0f} %** of the "
-           f"{d.steps['excess_sigma2']:.3g} σ² the rate-independent model leaves above the noise there."
-           if d.steps and d.extended.cause in d.steps["removed_share"] else "."),
+        _delivered_sentence(d),
         "",
         "## Data and scoring",
         "",
@@ -388,6 +378,37 @@ def summary_markdown(d: Diagnosis) -> str:
         f"{NEAR_NOISE_T:g} standard errors).",
         "",
     ]
+    lines += _second_record_lines(d) + _excitation_lines(d) + _candidates_and_statistics_lines(d, ev)
+    lines += ["", "## Plots", ""]
+    for name, text in PLOTS.items():
+        lines.append(f"- [`{name}`]({name}): {text}")
+    lines.append("")
+    return "\n".join(lines)
+
+
+def _delivered_sentence(d: Diagnosis) -> str:
+    """The report's sentence on the model delivered (and what the steps show of it)."""
+    if d.withheld:
+        delivered = f"Model delivered: the plain fit (`{d.withheld}`'s model predicts the second record worse)"
+    elif d.extended.cause == "baseline" and (d.general_model or {}).get("cause") == d.cause != "none":
+        delivered = (f"Model delivered: the plain fit (`{d.cause}` is named by the general model on the record's "
+                     "two halves; its MPI model, fitted with the MPI weights, would carry their loop-shape error "
+                     "too)")
+    elif d.extended.cause == "baseline":
+        delivered = f"Model delivered: the plain fit (no cause is named: `{d.cause}`)"
+    else:
+        delivered = (f"Extended model: `{d.extended.cause}`; gain **{d.gain_pct:.1f} %** less cross-validated RMS "
+                     "error than the baseline (`100 (1 − rms_after / rms_before)`)")
+    if not (d.steps and d.extended.cause in d.steps["removed_share"]):
+        return delivered + "."
+    return (f"{delivered}; on the responses to {d.steps['windows']} step(s) into holds, each left out of its fit, "
+            f"it removes **{100 * d.steps['removed_share'][d.extended.cause]:.0f} %** of the "
+            f"{d.steps['excess_sigma2']:.3g} σ² the rate-independent model leaves above the noise there.")
+
+
+def _second_record_lines(d: Diagnosis) -> list:
+    """The report's section on the second record (none without one)."""
+    lines = []
     if d.validation:
         lines += ["## Second record", "", d.validation["note"] + ".", "",
                   "| model | RMS % | max % | offset µm | gain |", "| --- | ---: | ---: | ---: | ---: |"]
@@ -396,13 +417,25 @@ def summary_markdown(d: Diagnosis) -> str:
                          f"{row['gain']:.4g} |")
         lines += ["", f"Cause by the second record: `{d.validation['cause']}`; by cross-validation alone: "
                       f"`{d.cross_validation_cause}`.", ""]
+    return lines
+
+
+def _excitation_lines(d: Diagnosis) -> list:
+    """The report's section on the excitation that separates a named set (none without one)."""
+    lines = []
     if d.excitation is not None:
         lines += ["## Excitation that separates the named set", "",
                   f"`pysim excite {d.source or 'DATA.csv'} --out excitation.csv` writes {d.excitation.size} samples:", ""]
         lines += [f"- samples {p['start_sample']}…{p['start_sample'] + p['samples'] - 1}: {p['purpose']}"
                   for p in d.excitation_plan]
         lines.append("")
-    lines += [
+    return lines
+
+
+def _candidates_and_statistics_lines(d: Diagnosis, ev: dict) -> list:
+    """The report's tables of the cross-validated candidates (``ev``: the evidence of
+    :meth:`Diagnosis.as_json`) and of the residual statistics."""
+    lines = [
         "## Candidates (cross-validated)",
         "",
         "| candidate | held-out RMS % | gain % | σ² removed | significant | evidence |",
@@ -418,11 +451,7 @@ def summary_markdown(d: Diagnosis) -> str:
     for key in stats["baseline"]:
         b, e = stats["baseline"][key], stats["extended"][key]
         lines.append(f"| {key} | {b:.4g} | {e:.4g} |")
-    lines += ["", "## Plots", ""]
-    for name, text in PLOTS.items():
-        lines.append(f"- [`{name}`]({name}): {text}")
-    lines.append("")
-    return "\n".join(lines)
+    return lines
 
 
 def write_report(d: Diagnosis, folder) -> Path:

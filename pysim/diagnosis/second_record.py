@@ -47,6 +47,58 @@ class RolesStand(Exception):
     """The second record cannot take the first one's role (it cannot identify the hysteresis)."""
 
 
+class _SecondRecordScores:
+    """Every model of the first record scored on the second record, with what the rules compare.
+
+    ``mse`` is each candidate's mean-square error on the second record (µm²); ``ref_val`` and
+    ``ref_cv`` the better rate-independent model's there and cross-validated on the first record;
+    ``noise1``, ``noise2`` the records' noise σ (µm); ``shape`` the second record's path evidence
+    (:func:`pysim.diagnosis.shape.correct_validation_for_shape`).  The second record's own
+    rate-independent fit and a steps verdict's test on it are made at most once, only when a rule
+    asks (:attr:`own_rate_independent_excess`, :meth:`raised`).
+    """
+
+    def __init__(self, fitter, baseline, richer, candidates, v1, v2, y2, cv_verdict, noise1, second=None):
+        self.fitter, self.baseline, self.richer, self.candidates = fitter, baseline, richer, candidates
+        self.v2, self.y2, self.cv_verdict, self.second, self.noise1 = v2, y2, cv_verdict, second, noise1
+        every = [baseline, richer, *candidates.values()]
+        train_range = (float(v1.min()), float(v1.max()))
+        for ev in every:
+            if ev.validation is None:
+                ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1)
+        self.noise2 = min(ev.validation["noise_um"] for ev in every)
+        self.memory2 = path_memory(v2)
+        self.shape = correct_validation_for_shape(every, v2, y2, self.noise2, self.memory2)
+        self.mse = {c: ev.validation["mse_um2"] for c, ev in candidates.items()}
+        self.ref_val = min(baseline.validation["mse_um2"], richer.validation["mse_um2"])
+        self.ref_cv = min(baseline.mse_um2, richer.mse_um2)
+        # what the better rate-independent model of the first record leaves on the second (µm²)
+        self.excess2 = self.ref_val - self.noise2**2
+
+    @functools.cached_property
+    def own_rate_independent_excess(self) -> float:
+        """What the second record's own rate-independent fit leaves above its noise (σ²)."""
+        return _rate_independent_excess(self.fitter, self.v2, self.y2, self.memory2)
+
+    def raised(self):
+        """A verdict shown by steps, tested on the second record's own hysteresis fit (see
+        :func:`_raised_on_own_hysteresis`); None for any other, tested by the first record's models."""
+        if not self.cv_verdict.get("steps"):
+            return None
+        return _raised_on_own_hysteresis(self.fitter, self.candidates, self.cv_verdict["causes"], self.v2, self.y2,
+                                         self.second)
+
+    def without_contradicted(self, verdict, how: str = "") -> tuple:
+        """``verdict`` without the causes the second record contradicts, and the sentence
+        (:func:`_without_contradicted`)."""
+        return _without_contradicted(verdict, self.mse, self.ref_val, self.noise2, self.raised(), how)
+
+    def result(self, verdict, standing: str, confirms: bool, by: str) -> tuple:
+        """``(validation, verdict)``: the second record's table and note with its shape evidence."""
+        return _with_shape(self.shape, *_validation_result(self.baseline, self.richer, self.candidates, self.noise2,
+                                                           verdict, standing, confirms, by))
+
+
 def validate_on_second_record(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_verdict, noise1,
                               outranks=None, second=None):
     """Score every model on the second record; the verdict by that record.
@@ -75,56 +127,74 @@ def validate_on_second_record(fitter, baseline, richer, candidates, v1, v2, y2, 
     on the second): a resonance near the sample rate ties with a fraction of a
     sample's delay, and predicts steps worse.  ``second`` builds the second
     record's own fitter (:func:`second_record_fitter`) once for every rule.
+
+    The rules run in order, each on :class:`_SecondRecordScores`: the verdict
+    the second record gives (:func:`_named_by_second_record`); a second record
+    that only measures how the first record's hysteresis part transfers
+    (:func:`_when_only_transfer_is_measured`); a second record that decides
+    against the first (:func:`_why_second_record_decides`), else a first record
+    that shows nothing beyond its noise (:func:`_when_first_record_quiet`); an
+    ``unexplained`` second record (:func:`_best_on_both_though_unexplained`,
+    :func:`_when_second_record_unexplained`); and a second record that shows
+    nothing (:func:`_when_second_record_quiet`).
     """
-    train_range = (float(v1.min()), float(v1.max()))
+    s = _SecondRecordScores(fitter, baseline, richer, candidates, v1, v2, y2, cv_verdict, noise1, second)
+    verdict = _named_by_second_record(s, complexity, outranks)
+    decided = _when_only_transfer_is_measured(s, verdict)
+    if decided is not None:
+        return decided
+    standing = _why_second_record_decides(s, verdict)
+    if not standing:
+        decided = _when_first_record_quiet(s, verdict)
+        if decided is not None:
+            return decided
+    verdict, standing = _best_on_both_though_unexplained(s, verdict, standing)
+    decided = _when_second_record_unexplained(s, verdict)
+    if decided is not None:
+        return decided
+    quiet = s.excess2 < 2.0 * NOISE_FRACTION * s.noise2**2
+    verdict, standing, by = (_when_second_record_quiet(s, verdict, standing) if quiet
+                             else (verdict, standing, "second record"))
+    return s.result(verdict, standing, not quiet, by)
 
-    def raised():
-        # a verdict shown by steps is tested on the second record's own hysteresis fit (see
-        # _raised_on_own_hysteresis); any other by the first record's models
-        if not cv_verdict.get("steps"):
-            return None
-        return _raised_on_own_hysteresis(fitter, candidates, cv_verdict["causes"], v2, y2, second)
 
-    for ev in [baseline, richer, *candidates.values()]:
-        if ev.validation is None:
-            ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1)
-    noise2 = min(ev.validation["noise_um"] for ev in [baseline, richer, *candidates.values()])
-    memory2 = path_memory(v2)
-    second_shape = correct_validation_for_shape([baseline, richer, *candidates.values()], v2, y2, noise2,
-                                                 memory2)
-    mse = {c: ev.validation["mse_um2"] for c, ev in candidates.items()}
-    ref_val = min(baseline.validation["mse_um2"], richer.validation["mse_um2"])
-    ref_cv = min(baseline.mse_um2, richer.mse_um2)
+def _named_by_second_record(s: _SecondRecordScores, complexity, outranks=None) -> dict:
+    """The verdict by the second record's errors alone (:func:`decide`), among the candidates the first
+    record does not contradict; an effect is the best of those significant on both records."""
+    candidates, mse = s.candidates, s.mse
     # a cause that raises the cross-validated error of the record it was fitted on is contradicted
     # there, whatever it gains on the second record: a trend or a creep standing in for a hysteresis
     # shape outside the model class (a Bouc-Wen plant: a drift 0.35 σ² worse out of sample on the
     # multisine it was fitted on was named for 0.49 σ² gained on a sine)
-    worse_where_fitted = {c for c, ev in candidates.items() if ev.mse_um2 > ref_cv + NOISE_FRACTION * noise1**2}
+    worse_where_fitted = {c for c, ev in candidates.items() if ev.mse_um2 > s.ref_cv + NOISE_FRACTION * s.noise1**2}
     verdict = shape_not_unexplained(decide({c: m for c, m in mse.items() if c not in worse_where_fitted},
-                                           baseline.validation["mse_um2"], richer.validation["mse_um2"], noise2,
-                                           complexity), second_shape)
-    if verdict["cause"] in EFFECTS:
-        # the second record names the cause; among the candidates significant on both records the
-        # one that lowers the error most on both together wins (a second record whose input the
-        # first never showed also tests the hysteresis part, which an effect may partly stand in for)
-        both = [c for c, ev in candidates.items() if verdict["significant"].get(c) and ev.significant]
-        if both:
-            score = {c: (candidates[c].mse_um2 / ref_cv) * (mse[c] / ref_val) for c in both}
-            best = min(both, key=score.get)
-            ties = sorted((c for c in both if score[c] <= (1.0 + 2.0 * TIE_FRACTION) * score[best]), key=score.get)
+                                           s.baseline.validation["mse_um2"], s.richer.validation["mse_um2"],
+                                           s.noise2, complexity), s.shape)
+    if verdict["cause"] not in EFFECTS:
+        return verdict
+    # the second record names the cause; among the candidates significant on both records the
+    # one that lowers the error most on both together wins (a second record whose input the
+    # first never showed also tests the hysteresis part, which an effect may partly stand in for)
+    both = [c for c, ev in candidates.items() if verdict["significant"].get(c) and ev.significant]
+    if not both:
+        return verdict
+    score = {c: (candidates[c].mse_um2 / s.ref_cv) * (mse[c] / s.ref_val) for c in both}
+    best = min(both, key=score.get)
+    ties = sorted((c for c in both if score[c] <= (1.0 + 2.0 * TIE_FRACTION) * score[best]), key=score.get)
 
-            def on_both(a, b):
-                return outranks is not None and outranks(a, b) and advantage_holds(
-                    y2, candidates[b].validation["prediction_um"], candidates[a].validation["prediction_um"])
+    def on_both(a, b):
+        return outranks is not None and outranks(a, b) and advantage_holds(
+            s.y2, candidates[b].validation["prediction_um"], candidates[a].validation["prediction_um"])
 
-            winner = simplest_unless_outranked(ties, best, complexity, score, on_both)
-            ties = [winner] + [c for c in ties if c != winner]
-            verdict = dict(verdict, cause=winner, causes=tuple(ties), best=best)
-    standing, by = "", "second record"
-    excess2 = ref_val - noise2**2
-    # the second record's own rate-independent fit: identified at most once, only when a rule needs it
-    own_rate_independent_excess = functools.cache(lambda: _rate_independent_excess(fitter, v2, y2, memory2))
+    winner = simplest_unless_outranked(ties, best, complexity, score, on_both)
+    ties = [winner] + [c for c in ties if c != winner]
+    return dict(verdict, cause=winner, causes=tuple(ties), best=best)
 
+
+def _when_only_transfer_is_measured(s: _SecondRecordScores, verdict: dict):
+    """The result when the second record measures only how the first record's hysteresis part transfers
+    to its input (the cross-validated verdict stands); None when it measures more."""
+    cv_verdict, noise2 = s.cv_verdict, s.noise2
     # "different" includes the same first cause in another set: a second record that measures the
     # hysteresis transfer must not drop a look-alike the first record could not rule out either
     # (band-limited noise with a 2-sample delay: {creep, lag, delay, ...} by cross-validation, the
@@ -132,105 +202,134 @@ def validate_on_second_record(fitter, baseline, richer, candidates, v1, v2, y2, 
     # than creep's)
     changed = (verdict["cause"] != cv_verdict["cause"]
                or set(verdict.get("causes", ())) != set(cv_verdict.get("causes", ())))
-    if (changed and excess2 >= UNEXPLAINED_LEVEL * noise2**2
-            and own_rate_independent_excess() < min(UNEXPLAINED_LEVEL,
-                                                    (1.0 - DECISIVE_SHARE) * excess2 / noise2**2)):
-        # the first record's models miss the second record by far more than its own rate-independent
-        # fit does, and that fit leaves too little for an effect to be decisive: the table measures how
-        # the first record's hysteresis part transfers to another input, and an effect that lowers it
-        # corrects that part by accident
-        # (independent seed 153: a 1.7 ms lag fitted on steps and sines from an unknown history;
-        # the decaying triangle of the second record is missed by 106 σ², which its own fit brings
-        # to a few σ², and creep modes fitted with the first record's hysteresis remove 100 σ² of it).
-        # The cross-validated verdict stands; a tied set is told apart by the second record's own fit
-        standing = (f"; the first record's models miss the second record by {excess2 / noise2**2:.3g} σ² above its "
-                    f"noise, of which its own rate-independent fit leaves {own_rate_independent_excess():.3g} σ²: "
-                    "the second record measures how the first record's hysteresis part transfers to its input, "
-                    f"not the effect, so its verdict ({', '.join(verdict['causes']) or verdict['cause']}) does not "
-                    "replace the cross-validated one")
-        if cv_verdict.get("steps"):
-            # a cause the steps named is still tested on the second record's own hysteresis fit
-            cv_verdict, dropped = _without_contradicted(cv_verdict, mse, ref_val, noise2, raised(),
-                                                        "put on the second record's own rate-independent fit, ")
-            standing += dropped
-        return _with_shape(second_shape, *_validation_result(baseline, richer, candidates, noise2, cv_verdict,
-                                                             standing, False, "cross-validation"))
-    shown_by_steps_too = bool(cv_verdict.get("steps") and verdict["cause"] in EFFECTS
-                              and verdict["cause"] in cv_verdict["steps"]["removed_share"])
-    decisive = (verdict["cause"] in EFFECTS and excess2 >= UNEXPLAINED_LEVEL * noise2**2
-                and ref_val - mse[verdict["cause"]] >= DECISIVE_SHARE * excess2
-                and candidates[verdict["cause"]].mse_um2 <= ref_cv + NOISE_FRACTION * noise1**2
-                and not candidates[verdict["cause"]].significant
-                and own_rate_independent_excess() >= UNEXPLAINED_LEVEL)
+    if not (changed and s.excess2 >= UNEXPLAINED_LEVEL * noise2**2
+            and s.own_rate_independent_excess < min(UNEXPLAINED_LEVEL,
+                                                    (1.0 - DECISIVE_SHARE) * s.excess2 / noise2**2)):
+        return None
+    # the first record's models miss the second record by far more than its own rate-independent
+    # fit does, and that fit leaves too little for an effect to be decisive: the table measures how
+    # the first record's hysteresis part transfers to another input, and an effect that lowers it
+    # corrects that part by accident
+    # (independent seed 153: a 1.7 ms lag fitted on steps and sines from an unknown history;
+    # the decaying triangle of the second record is missed by 106 σ², which its own fit brings
+    # to a few σ², and creep modes fitted with the first record's hysteresis remove 100 σ² of it).
+    # The cross-validated verdict stands; a tied set is told apart by the second record's own fit
+    standing = (f"; the first record's models miss the second record by {s.excess2 / noise2**2:.3g} σ² above its "
+                f"noise, of which its own rate-independent fit leaves {s.own_rate_independent_excess:.3g} σ²: "
+                "the second record measures how the first record's hysteresis part transfers to its input, "
+                f"not the effect, so its verdict ({', '.join(verdict['causes']) or verdict['cause']}) does not "
+                "replace the cross-validated one")
+    if cv_verdict.get("steps"):
+        # a cause the steps named is still tested on the second record's own hysteresis fit
+        cv_verdict, dropped = s.without_contradicted(cv_verdict,
+                                                     "put on the second record's own rate-independent fit, ")
+        standing += dropped
+    return s.result(cv_verdict, standing, False, "cross-validation")
+
+
+def _why_second_record_decides(s: _SecondRecordScores, verdict: dict) -> str:
+    """The sentence when the second record's effect stands against the first record: a decisive
+    second record, or an effect the first record's steps show too ("" when neither)."""
+    cv_verdict, mse, noise2 = s.cv_verdict, s.mse, s.noise2
+    cause = verdict["cause"]
+    decisive = (cause in EFFECTS and s.excess2 >= UNEXPLAINED_LEVEL * noise2**2
+                and s.ref_val - mse[cause] >= DECISIVE_SHARE * s.excess2
+                and s.candidates[cause].mse_um2 <= s.ref_cv + NOISE_FRACTION * s.noise1**2
+                and not s.candidates[cause].significant
+                and s.own_rate_independent_excess >= UNEXPLAINED_LEVEL)
     if decisive:
-        standing = (f"; the first record shows nothing beyond its noise, but on the second record "
-                    f"{verdict['cause']} removes {100 * (ref_val - mse[verdict['cause']]) / excess2:.0f} % of a "
-                    f"residual of {excess2 / noise2**2:.3g} σ² above the noise")
-    elif shown_by_steps_too:
+        return (f"; the first record shows nothing beyond its noise, but on the second record "
+                f"{cause} removes {100 * (s.ref_val - mse[cause]) / s.excess2:.0f} % of a "
+                f"residual of {s.excess2 / noise2**2:.3g} σ² above the noise")
+    if cv_verdict.get("steps") and cause in EFFECTS and cause in cv_verdict["steps"]["removed_share"]:
         # the first record's steps show an effect, and the second record names one that predicts
         # those steps too: the second record tells the look-alikes on the steps apart
-        standing = (f"; on the first record's steps {verdict['cause']} removes "
-                    f"{100 * cv_verdict['steps']['removed_share'][verdict['cause']]:.0f} % of what the "
-                    "rate-independent model leaves there, and the second record names it")
-    elif ref_cv - noise1**2 < 2.0 * NOISE_FRACTION * noise1**2 and verdict["cause"] != cv_verdict["cause"]:
-        # the first record shows nothing beyond its noise: every candidate's effect parameters were
-        # fitted to noise there, so what one gains on the second record is a correction of the
-        # hysteresis part by accident, not evidence of that effect
-        standing = (f"; the first record leaves only {(ref_cv - noise1**2) / noise1**2:.2g} σ² above its noise "
-                    "(the candidates' effects were fitted to noise there), so the second record's "
-                    f"{verdict['cause']} is not evidence of an effect: diagnose the second record on its own")
-        # an effect named near the noise of the first record must not make the second one worse
-        cv_verdict, dropped = _without_contradicted(cv_verdict, mse, ref_val, noise2, raised())
-        standing += dropped
-        return _with_shape(second_shape, *_validation_result(baseline, richer, candidates, noise2, cv_verdict,
-                                                             standing, False, "cross-validation"))
+        return (f"; on the first record's steps {cause} removes "
+                f"{100 * cv_verdict['steps']['removed_share'][cause]:.0f} % of what the "
+                "rate-independent model leaves there, and the second record names it")
+    return ""
+
+
+def _when_first_record_quiet(s: _SecondRecordScores, verdict: dict):
+    """The result when the first record shows nothing beyond its noise and the second record names
+    another cause (the cross-validated verdict stands, without what the second record contradicts);
+    None otherwise."""
+    noise1 = s.noise1
+    if not (s.ref_cv - noise1**2 < 2.0 * NOISE_FRACTION * noise1**2 and verdict["cause"] != s.cv_verdict["cause"]):
+        return None
+    # the first record shows nothing beyond its noise: every candidate's effect parameters were
+    # fitted to noise there, so what one gains on the second record is a correction of the
+    # hysteresis part by accident, not evidence of that effect
+    standing = (f"; the first record leaves only {(s.ref_cv - noise1**2) / noise1**2:.2g} σ² above its noise "
+                "(the candidates' effects were fitted to noise there), so the second record's "
+                f"{verdict['cause']} is not evidence of an effect: diagnose the second record on its own")
+    # an effect named near the noise of the first record must not make the second one worse
+    cv_verdict, dropped = s.without_contradicted(s.cv_verdict)
+    return s.result(cv_verdict, standing + dropped, False, "cross-validation")
+
+
+def _best_on_both_though_unexplained(s: _SecondRecordScores, verdict: dict, standing: str) -> tuple:
+    """``(verdict, standing)``: an ``unexplained`` second record whose best candidate is the first
+    record's cause, significant on both, names it."""
     best = verdict.get("best")
-    if (verdict["cause"] == "unexplained" and best is not None and best == cv_verdict["cause"]
-            and verdict["significant"].get(best) and candidates[best].significant):
-        # the same candidate is significant on both records and explains most of the first record's
-        # residual: it is the cause, and what it leaves on the second record is said, not hidden
-        standing = (f"; {best} is significant on both records and explains most of the first record's "
-                    f"residual but only {100 * verdict['explained_share']:.0f} % of the second record's: it is "
-                    "named, and the rest of the second record's residual is outside what it describes")
-        verdict = dict(verdict, cause=best, causes=(best,))
-    if (verdict["cause"] == "unexplained" and cv_verdict["cause"] in EFFECTS
-            and own_rate_independent_excess() >= UNEXPLAINED_LEVEL):
-        # the first record's models leave the second record unexplained, yet its own rate-independent
-        # fit leaves an effect's worth too: the first record's hysteresis part may be what fails there
-        # (a chirp's loops on band-limited noise), not the cause.  Diagnosed on its own, the second
-        # record confirms the cause when it names it (independent seed 154: creep fitted on a chirp
-        # leaves band-limited noise at 38.6 σ² against the plain fit's 42.7; fitted on that record
-        # itself, input-driven creep takes its 20.5 σ² above the noise to 0)
-        alone = _second_record_alone(fitter, EFFECTS, v2, y2, second)
-        if alone is not None and alone[0]["cause"] in cv_verdict["causes"]:
-            own_verdict, found, own_noise, _ = alone
-            confirmed = own_verdict["cause"]
-            standing = (f"; the first record's models leave the second record unexplained, and its own "
-                        f"rate-independent fit leaves {own_rate_independent_excess():.3g} σ² above its noise too; "
-                        f"diagnosed on its own (every cause fitted and cross-validated there), the second record "
-                        f"names {confirmed} ({found[confirmed].mse_um2 / own_noise**2:.3g} σ² left): it confirms "
-                        "the cross-validated verdict, and the first record's hysteresis part is what its models "
-                        "miss there")
-            return _with_shape(second_shape, *_validation_result(baseline, richer, candidates, noise2, cv_verdict,
-                                                                 standing, True, "second record alone"))
-    quiet = ref_val - noise2**2 < 2.0 * NOISE_FRACTION * noise2**2
-    if quiet and verdict["cause"] == "none" and cv_verdict["cause"] != "none":
-        kept, contradicted = _not_contradicted(cv_verdict, mse, ref_val, noise2, raised())
-        if not kept:
-            standing = (f"; the first record's verdict ({', '.join(cv_verdict['causes'])}) is not kept: "
-                        f"{', '.join(contradicted)} {'raises' if len(contradicted) == 1 else 'raise'} the second "
-                        f"record's error by {NOISE_FRACTION} σ² or more")
-        else:
-            # a member of a tied set that the second record contradicts leaves the set, the rest stands
-            verdict, by = dict(cv_verdict, cause=kept[0], causes=tuple(kept)), "cross-validation"
-            standing = (f"; the second record leaves only {(ref_val - noise2**2) / noise2**2:.2g} σ² above its "
-                        f"noise for any effect to explain (it cannot confirm one) and "
-                        f"{', '.join(kept)} {'does' if len(kept) == 1 else 'do'} not raise its error: the "
-                        "cross-validated verdict stands"
-                        + (f" without {', '.join(contradicted)}, which raise{'s' if len(contradicted) == 1 else ''} it "
-                           f"by {NOISE_FRACTION} σ² or more" if contradicted else ""))
-    return _with_shape(second_shape, *_validation_result(baseline, richer, candidates, noise2, verdict, standing,
-                                                         not quiet, by))
+    if not (verdict["cause"] == "unexplained" and best is not None and best == s.cv_verdict["cause"]
+            and verdict["significant"].get(best) and s.candidates[best].significant):
+        return verdict, standing
+    # the same candidate is significant on both records and explains most of the first record's
+    # residual: it is the cause, and what it leaves on the second record is said, not hidden
+    standing = (f"; {best} is significant on both records and explains most of the first record's "
+                f"residual but only {100 * verdict['explained_share']:.0f} % of the second record's: it is "
+                "named, and the rest of the second record's residual is outside what it describes")
+    return dict(verdict, cause=best, causes=(best,)), standing
+
+
+def _when_second_record_unexplained(s: _SecondRecordScores, verdict: dict):
+    """The result when the second record, which the first record's models leave unexplained, names
+    the first record's cause diagnosed on its own; None otherwise."""
+    cv_verdict = s.cv_verdict
+    if not (verdict["cause"] == "unexplained" and cv_verdict["cause"] in EFFECTS
+            and s.own_rate_independent_excess >= UNEXPLAINED_LEVEL):
+        return None
+    # the first record's models leave the second record unexplained, yet its own rate-independent
+    # fit leaves an effect's worth too: the first record's hysteresis part may be what fails there
+    # (a chirp's loops on band-limited noise), not the cause.  Diagnosed on its own, the second
+    # record confirms the cause when it names it (independent seed 154: creep fitted on a chirp
+    # leaves band-limited noise at 38.6 σ² against the plain fit's 42.7; fitted on that record
+    # itself, input-driven creep takes its 20.5 σ² above the noise to 0)
+    alone = _second_record_alone(s.fitter, EFFECTS, s.v2, s.y2, s.second)
+    if alone is None or alone[0]["cause"] not in cv_verdict["causes"]:
+        return None
+    own_verdict, found, own_noise, _ = alone
+    confirmed = own_verdict["cause"]
+    standing = (f"; the first record's models leave the second record unexplained, and its own "
+                f"rate-independent fit leaves {s.own_rate_independent_excess:.3g} σ² above its noise too; "
+                f"diagnosed on its own (every cause fitted and cross-validated there), the second record "
+                f"names {confirmed} ({found[confirmed].mse_um2 / own_noise**2:.3g} σ² left): it confirms "
+                "the cross-validated verdict, and the first record's hysteresis part is what its models "
+                "miss there")
+    return s.result(cv_verdict, standing, True, "second record alone")
+
+
+def _when_second_record_quiet(s: _SecondRecordScores, verdict: dict, standing: str) -> tuple:
+    """``(verdict, standing, by)`` for a second record that leaves less than ``2 NOISE_FRACTION`` σ²
+    for any effect: it cannot confirm the first record's cause, only contradict it."""
+    cv_verdict, noise2 = s.cv_verdict, s.noise2
+    if not (verdict["cause"] == "none" and cv_verdict["cause"] != "none"):
+        return verdict, standing, "second record"
+    kept, contradicted = _not_contradicted(cv_verdict, s.mse, s.ref_val, noise2, s.raised())
+    if not kept:
+        standing = (f"; the first record's verdict ({', '.join(cv_verdict['causes'])}) is not kept: "
+                    f"{', '.join(contradicted)} {'raises' if len(contradicted) == 1 else 'raise'} the second "
+                    f"record's error by {NOISE_FRACTION} σ² or more")
+        return verdict, standing, "second record"
+    # a member of a tied set that the second record contradicts leaves the set, the rest stands
+    standing = (f"; the second record leaves only {s.excess2 / noise2**2:.2g} σ² above its "
+                f"noise for any effect to explain (it cannot confirm one) and "
+                f"{', '.join(kept)} {'does' if len(kept) == 1 else 'do'} not raise its error: the "
+                "cross-validated verdict stands"
+                + (f" without {', '.join(contradicted)}, which raise{'s' if len(contradicted) == 1 else ''} it "
+                   f"by {NOISE_FRACTION} σ² or more" if contradicted else ""))
+    return dict(cv_verdict, cause=kept[0], causes=tuple(kept)), standing, "cross-validation"
 
 
 def _with_shape(shape: dict, validation: dict, verdict: dict) -> tuple:

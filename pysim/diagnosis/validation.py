@@ -158,75 +158,9 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
     y = np.asarray(displacement_um, dtype=float)
     model = fit.model
     plant = getattr(model, "plant", model) if isinstance(model, InputStageModel) else model
-    h = plant.hysteresis
     x = model.stage_input(v) if isinstance(model, InputStageModel) else v
-    low, high = operator_bounds(x, h.thresholds_V, h.operator, h.input_offset_V)
-    b = np.asarray(h.weights_um_per_V, dtype=float)
-
-    def predict(s):
-        return plant.simulate(x, initial_extended_state(plant, x[0], s))
-
     modes = history_modes(plant, v.size, sample_period_s)
-    moving = [np.flatnonzero(high[:, i] - low[:, i] > 0) for i in range(h.n_operators)]
-
-    def as_is(state):
-        """The state, its error sum (the offset, gain and modes fitted) and its prediction."""
-        p = predict(state)
-        g, _, free = _affine(p, y, modes)
-        return state, float(np.sum((y - g * p - free) ** 2)), p
-
-    def estimate(state):
-        """Exact steps per operator from ``state``, alternating with the offset,
-        gain and modes; the state, its error sum and its prediction."""
-        state = state.copy()
-        for _ in range(STATE_ROUNDS if any(k.size for k in moving) else 0):
-            p = predict(state)
-            g, _, free = _affine(p, y, modes)
-            e = y - g * p - free
-            for i, k in enumerate(moving):
-                if k.size == 0 or b[i] == 0.0 or g == 0.0:
-                    continue
-                L, U = low[k, i], high[k, i]
-                current = np.clip(state[i], L, U)
-                target = e[k] / (g * b[i]) + current
-                new = best_clamped_state(target, L, U, low[0, i], high[0, i])
-                e[k] -= g * b[i] * (np.clip(new, L, U) - current)
-                state[i] = new
-        return as_is(state)
-
-    def through_stages(found):
-        """The exact steps above treat the model as static.  Its sections and
-        delay spread a state's effect over later samples (a creep mode keeps
-        moving after the operator has settled), so those steps can leave the
-        state far off; a scalar search per operator through the stages,
-        alternating with the offset, gain and modes, takes it from there."""
-        stage = plant.stages.runner.linear_part()
-        remembers = np.flatnonzero(np.any(high > low, axis=1))
-        if stage.state_size == 0 or remembers.size == 0:
-            return found
-        remembered = np.arange(int(remembers[-1]) + 1)
-        for _ in range(STAGE_STATE_ROUNDS):
-            state, sse, p = found
-            g, _, free = _affine(p, y, modes)
-            refined = as_is(refine_state_through_stage(state, (y - g * p - free)[remembered], low, high, b,
-                                                       stage.apply_to_columns, remembered, gain=g))
-            if not refined[1] < sse * (1.0 - 1e-4):
-                break
-            found = refined
-        return found
-
-    # starts as in identify: demagnetised, the lowest and highest admissible states (a record that
-    # begins right after a fall from the top starts at the highest), and the best two of the states
-    # short histories leave, over the range of either record -- each as it is and after the exact
-    # steps, which treat the model as static and can lead a model with stages away from a good start
-    starts = [np.clip(np.zeros(h.n_operators), low[0], high[0]), low[0].copy(), high[0].copy()]
-    span = (min(float(x.min()), h.voltage_range_V[0]), max(float(x.max()), h.voltage_range_V[1]))
-    histories = [as_is(np.clip(state, low[0], high[0])) for state in
-                 short_history_states(np.linspace(*span, HISTORY_LEVELS) - h.input_offset_V, h.thresholds_V,
-                                      h.operator)]
-    histories = sorted(histories, key=lambda found: found[1])[:HISTORY_STARTS]
-    found = [estimate(start) for start in starts + [start for start, _, _ in histories]] + histories
-    state, _, p = through_stages(min(found, key=lambda found: found[1]))
+    state, p = _StateSearch(plant, x, y, modes).best()
     lo, hi = train_range_V
     level = v
     if isinstance(model, InputStageModel) and train_voltage_V is not None:
@@ -236,15 +170,7 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
     scored = scored[(scored > 0) & (scored < v.size - 1)]
     if scored.size < 10:
         scored = np.arange(1, v.size - 1)
-    best = None
-    for shift in TIMING_SHIFTS_SAMPLES:
-        ps = _shifted(p, shift)
-        g, c, free = _affine(ps, y, modes, scored)
-        fitted = g * ps + free
-        mse = float(np.mean((y[scored] - fitted[scored]) ** 2))
-        if best is None or mse < best[0] * (1 - 1e-9):
-            best = (mse, shift, g, c, fitted)
-    mse, shift, g, c, prediction = best
+    mse, shift, g, c, prediction = _best_timing(p, y, modes, scored)
     span = float(np.ptp(y[scored]))
     error = np.abs(y[scored] - prediction[scored])
     return {"rms_pct": 100.0 * float(np.sqrt(mse)) / span if span > 0 else float("nan"),
@@ -253,3 +179,104 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
             "scored_samples": int(scored.size), "history_modes": int(modes.shape[1]),
             "noise_um": record_noise_sigma((y - prediction)[scored], y),
             "initial_state_V": [float(s) for s in state], "prediction_um": prediction, "scored_rows": scored}
+
+
+def _best_timing(prediction_um, y, modes, scored) -> tuple:
+    """``(mse, shift, gain, offset, fitted)``: the timing shift of :data:`TIMING_SHIFTS_SAMPLES` whose
+    prediction, after the sensor gain, offset and history modes fitted on the ``scored`` rows, leaves
+    the least mean-square error there (µm²; a later shift wins only by more than rounding)."""
+    best = None
+    for shift in TIMING_SHIFTS_SAMPLES:
+        ps = _shifted(prediction_um, shift)
+        g, c, free = _affine(ps, y, modes, scored)
+        fitted = g * ps + free
+        mse = float(np.mean((y[scored] - fitted[scored]) ** 2))
+        if best is None or mse < best[0] * (1 - 1e-9):
+            best = (mse, shift, g, c, fitted)
+    return best
+
+
+class _StateSearch:
+    """The initial operator state of ``plant`` on another record (input ``x`` to its hysteresis,
+    output ``y`` µm), with the sensor offset, gain and history ``modes`` fitted alongside.
+
+    Each candidate is ``(state, error sum, prediction)``; :meth:`best` returns the best state and
+    its prediction.
+    """
+
+    def __init__(self, plant, x, y, modes):
+        self.plant, self.x, self.y, self.modes = plant, x, y, modes
+        h = plant.hysteresis
+        self.low, self.high = operator_bounds(x, h.thresholds_V, h.operator, h.input_offset_V)
+        self.weights = np.asarray(h.weights_um_per_V, dtype=float)
+        # the samples where each operator's admissible state still depends on where it started
+        self.moving = [np.flatnonzero(self.high[:, i] - self.low[:, i] > 0) for i in range(h.n_operators)]
+
+    def predict(self, state):
+        return self.plant.simulate(self.x, initial_extended_state(self.plant, self.x[0], state))
+
+    def as_is(self, state):
+        """The state, its error sum (the offset, gain and modes fitted) and its prediction."""
+        p = self.predict(state)
+        g, _, free = _affine(p, self.y, self.modes)
+        return state, float(np.sum((self.y - g * p - free) ** 2)), p
+
+    def estimate(self, state):
+        """Exact steps per operator from ``state``, alternating with the offset,
+        gain and modes; the state, its error sum and its prediction."""
+        low, high, b, y = self.low, self.high, self.weights, self.y
+        state = state.copy()
+        for _ in range(STATE_ROUNDS if any(k.size for k in self.moving) else 0):
+            p = self.predict(state)
+            g, _, free = _affine(p, y, self.modes)
+            e = y - g * p - free
+            for i, k in enumerate(self.moving):
+                if k.size == 0 or b[i] == 0.0 or g == 0.0:
+                    continue
+                L, U = low[k, i], high[k, i]
+                current = np.clip(state[i], L, U)
+                target = e[k] / (g * b[i]) + current
+                new = best_clamped_state(target, L, U, low[0, i], high[0, i])
+                e[k] -= g * b[i] * (np.clip(new, L, U) - current)
+                state[i] = new
+        return self.as_is(state)
+
+    def through_stages(self, found):
+        """The exact steps above treat the model as static.  Its sections and
+        delay spread a state's effect over later samples (a creep mode keeps
+        moving after the operator has settled), so those steps can leave the
+        state far off; a scalar search per operator through the stages,
+        alternating with the offset, gain and modes, takes it from there."""
+        low, high, y = self.low, self.high, self.y
+        stage = self.plant.stages.runner.linear_part()
+        remembers = np.flatnonzero(np.any(high > low, axis=1))
+        if stage.state_size == 0 or remembers.size == 0:
+            return found
+        remembered = np.arange(int(remembers[-1]) + 1)
+        for _ in range(STAGE_STATE_ROUNDS):
+            state, sse, p = found
+            g, _, free = _affine(p, y, self.modes)
+            refined = self.as_is(refine_state_through_stage(state, (y - g * p - free)[remembered], low, high,
+                                                            self.weights, stage.apply_to_columns, remembered,
+                                                            gain=g))
+            if not refined[1] < sse * (1.0 - 1e-4):
+                break
+            found = refined
+        return found
+
+    def best(self) -> tuple:
+        """``(state, prediction)`` of the best start after the steps."""
+        low, high, x, h = self.low, self.high, self.x, self.plant.hysteresis
+        # starts as in identify: demagnetised, the lowest and highest admissible states (a record that
+        # begins right after a fall from the top starts at the highest), and the best two of the states
+        # short histories leave, over the range of either record -- each as it is and after the exact
+        # steps, which treat the model as static and can lead a model with stages away from a good start
+        starts = [np.clip(np.zeros(h.n_operators), low[0], high[0]), low[0].copy(), high[0].copy()]
+        span = (min(float(x.min()), h.voltage_range_V[0]), max(float(x.max()), h.voltage_range_V[1]))
+        histories = [self.as_is(np.clip(state, low[0], high[0])) for state in
+                     short_history_states(np.linspace(*span, HISTORY_LEVELS) - h.input_offset_V, h.thresholds_V,
+                                          h.operator)]
+        histories = sorted(histories, key=lambda found: found[1])[:HISTORY_STARTS]
+        found = [self.estimate(start) for start in starts + [start for start, _, _ in histories]] + histories
+        state, _, p = self.through_stages(min(found, key=lambda found: found[1]))
+        return state, p

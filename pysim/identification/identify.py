@@ -785,27 +785,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
             raise IdentificationError(f"initial_state has {state0.size} entries, not {r.size}")
     else:
         state0 = demagnetised
-    travel = operator_travel(low, high, rows, v)
-    unexcited_message, anchor, factor = _why_unidentified(v, rows, r, travel, hi - lo, f"{first}..{stop - 1}",
-                                                          merge=merge_unexcited)
-    if unexcited_message is not None and require_excitation:
-        raise IdentificationError(unexcited_message)
-    whole = isinstance(rows, slice) and first == 0 and stop == v.size
-    static_curve = unexcited_message is not None and (
-        whole or _why_unidentified(v, slice(0, v.size), r, operator_travel(low, high, slice(0, v.size), v),
-                                   hi - lo, "")[0] is not None)
-    if static_curve:
-        # the whole record identifies no operator's hysteresis: all are reported as such, but each keeps
-        # its column (dependent ones are tied below), so the fit is the record's own curve, as a
-        # rate-independent reference must be: on an input that only rises the operators are ramps whose
-        # knots the estimated states place.  a1 u³ + a2 u + offset alone left the loading curve's shape,
-        # which a diagnosis then blamed on creep (a time function is an input function on a ramp)
-        anchor = np.where(r > 0, np.arange(r.size), -1)
-        factor = np.ones(r.size)
-    elif unexcited_message is not None:
-        # only the fitted rows identify nothing (a training part of a record that does): the model is
-        # to predict rows these do not excite, so no operator gets a weight here (a1 u³ + a2 u + offset)
-        anchor = np.full(r.size, -1)
+    travel, unexcited_message, anchor, factor, static_curve = _excitation_of_rows(
+        v, rows, first, stop, r, low, high, hi - lo, merge_unexcited, require_excitation)
     columns = _Columns(r, cubic, anchor, factor, extras)
 
     # Only the window's rows are fitted; the state matters only where an
@@ -833,26 +814,9 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     warm = None if start_state is None else np.clip(np.asarray(start_state, dtype=float).ravel(), low[0], high[0])
     if warm is not None and warm.size != r.size:
         raise IdentificationError(f"start_state has {warm.size} entries, not {r.size}")
-    if estimate and window.transient_rows.size and warm is not None and column_transform is not None:
-        state0 = warm         # the estimate is refined through the transform below
-    elif estimate and window.transient_rows.size:
-        if warm is not None:
-            starts = [warm, demagnetised]
-        else:
-            starts = [demagnetised, low[0].copy(), high[0].copy()] + [
-                np.clip(s, low[0], high[0])
-                for s in short_history_states(np.linspace(lo, hi, 9) - input_offset, r, operator)]
-        state0, theta, active, condition, sse = window.estimated_state(starts, demagnetised,
-                                                                       from_settled=warm is None)
-    else:
-        _, theta, active, condition, sse = window.solve(state0)
-    if column_transform is None:
-        A = np.column_stack([columns.design(state0, low, high, u), extra_matrix])
-    else:
-        state0, A, theta, active, condition, sse = _fit_through_transform(
-            columns, column_transform, low, high, u, y, rows, extra_matrix, G, h,
-            [state0, demagnetised] if estimate else [state0],
-            refine=bool(estimate and window.transient_rows.size))
+    state0, A, theta, active, condition, sse = _state_and_parameters(
+        window, columns, state0, warm, estimate, column_transform, low, high, u, y, rows, extra_matrix, G, h,
+        (lo, hi), input_offset, operator)
 
     a1 = float(theta[0]) if cubic else 0.0
     a2 = float(theta[columns.n_lin - 1])
@@ -876,6 +840,68 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         initial_state_estimated=bool(estimate), not_identifiable_operators=not_identifiable,
         merged_into=merged, operator_travel_V=travel, condition_number=condition,
         unidentified_reason=unexcited_message or "")
+
+
+def _excitation_of_rows(v, rows, first: int, stop: int, r, low, high, span_V: float, merge: bool,
+                        require_excitation: bool) -> tuple:
+    """``(travel, unexcited_message, anchor, factor, static_curve)``: how far each operator travels
+    over the fitted rows, why none is identifiable (None when one is), each operator's anchor and
+    factor (:func:`_why_unidentified`), and whether the whole record identifies no operator (it is
+    then fitted as the curve it shows).  Raises :class:`IdentificationError` when no operator is
+    identifiable and ``require_excitation``."""
+    travel = operator_travel(low, high, rows, v)
+    unexcited_message, anchor, factor = _why_unidentified(v, rows, r, travel, span_V, f"{first}..{stop - 1}",
+                                                          merge=merge)
+    if unexcited_message is not None and require_excitation:
+        raise IdentificationError(unexcited_message)
+    whole = isinstance(rows, slice) and first == 0 and stop == v.size
+    static_curve = unexcited_message is not None and (
+        whole or _why_unidentified(v, slice(0, v.size), r, operator_travel(low, high, slice(0, v.size), v),
+                                   span_V, "")[0] is not None)
+    if static_curve:
+        # the whole record identifies no operator's hysteresis: all are reported as such, but each keeps
+        # its column (dependent ones are tied below), so the fit is the record's own curve, as a
+        # rate-independent reference must be: on an input that only rises the operators are ramps whose
+        # knots the estimated states place.  a1 u³ + a2 u + offset alone left the loading curve's shape,
+        # which a diagnosis then blamed on creep (a time function is an input function on a ramp)
+        anchor = np.where(r > 0, np.arange(r.size), -1)
+        factor = np.ones(r.size)
+    elif unexcited_message is not None:
+        # only the fitted rows identify nothing (a training part of a record that does): the model is
+        # to predict rows these do not excite, so no operator gets a weight here (a1 u³ + a2 u + offset)
+        anchor = np.full(r.size, -1)
+    return travel, unexcited_message, anchor, factor, static_curve
+
+
+def _state_and_parameters(window, columns, state0, warm, estimate: bool, column_transform, low, high, u, y, rows,
+                          extra_matrix, G, h, fitted_range_V, input_offset: float, operator: str) -> tuple:
+    """``(state0, A, theta, active, condition, sse)``: the operator state before the first sample
+    (estimated with the weights when ``estimate``, from ``warm`` or many starts; else ``state0``) and
+    the parameters fitted with it, through ``column_transform`` when given; ``A`` is the whole record's
+    design matrix."""
+    demagnetised = np.clip(np.zeros(low.shape[1]), low[0], high[0])
+    transient = bool(window.transient_rows.size)
+    if estimate and transient and warm is not None and column_transform is not None:
+        state0 = warm         # the estimate is refined through the transform below
+    elif estimate and transient:
+        if warm is not None:
+            starts = [warm, demagnetised]
+        else:
+            lo, hi = fitted_range_V
+            starts = [demagnetised, low[0].copy(), high[0].copy()] + [
+                np.clip(s, low[0], high[0])
+                for s in short_history_states(np.linspace(lo, hi, 9) - input_offset, columns.r, operator)]
+        state0, theta, active, condition, sse = window.estimated_state(starts, demagnetised,
+                                                                       from_settled=warm is None)
+    else:
+        _, theta, active, condition, sse = window.solve(state0)
+    if column_transform is None:
+        A = np.column_stack([columns.design(state0, low, high, u), extra_matrix])
+    else:
+        state0, A, theta, active, condition, sse = _fit_through_transform(
+            columns, column_transform, low, high, u, y, rows, extra_matrix, G, h,
+            [state0, demagnetised] if estimate else [state0], refine=bool(estimate and transient))
+    return state0, A, theta, active, condition, sse
 
 
 def _checked_rows(voltage_V, displacement_um, model, warmup, fit_slice, fit_rows) -> tuple:
@@ -1307,22 +1333,8 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
     """
     if model not in ("mpi", "cpi"):
         raise IdentificationError(f"model must be 'mpi' or 'cpi', got {model!r}")
-    records = [(np.asarray(v, dtype=float).ravel(), np.asarray(y, dtype=float).ravel()) for v, y in records]
-    n_records = len(records)
-    if n_records == 0 or len(initial_states) != n_records:
-        raise IdentificationError(f"{n_records} records but {len(initial_states)} initial states")
-    shared = list(shared_extras) if shared_extras is not None else [{} for _ in records]
-    own = list(own_extras) if own_extras is not None else [{} for _ in records]
-    rows = ([np.arange(v.size) for v, _ in records] if fit_rows is None
-            else [np.unique(np.asarray(k, dtype=int).ravel()) for k in fit_rows])
-    if not (len(shared) == len(own) == len(rows) == n_records):
-        raise IdentificationError("shared_extras, own_extras and fit_rows need one entry per record")
-    shared_names = list(shared[0])
-    if any(list(extras) != shared_names for extras in shared):
-        raise IdentificationError("shared_extras must name the same columns, in the same order, on every record")
-    own_names = [f"record {k + 1} offset" for k in range(1, n_records)] + [key for extras in own for key in extras]
-    if len(set(own_names)) != len(own_names) or set(own_names) & set(shared_names):
-        raise IdentificationError("own_extras' names must be unique over the records and the shared extras")
+    records, shared, own, rows, shared_names, own_names = _joint_records(records, initial_states, shared_extras,
+                                                                         own_extras, fit_rows)
     r = np.asarray(thresholds_V, dtype=float)
     cubic = model == "mpi"
     n_lin = 2 if cubic else 1
@@ -1341,26 +1353,11 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
     column_of = {i: n_lin + j for j, i in enumerate(groups)}
     n_hyst = n_lin + len(groups) + 1
 
-    blocks, targets = [], []
     n_shared, n_own = len(shared_names), len(own_names)
-    for index, ((A, columns), (v, y), k) in enumerate(zip(raw, records, rows)):
-        H = np.zeros((v.size, n_hyst))
-        H[:, :n_lin] = A[:, :n_lin]
-        for i in range(r.size):
-            if anchor[i] >= 0 and columns[i] >= 0:
-                H[:, column_of[anchor[i]]] += factor[i] * A[:, columns[i]]
-        H[:, n_hyst - 1] = 1.0
-        if column_transform is not None:
-            H = np.asarray(column_transform(H), dtype=float)
-        S = (np.column_stack([np.asarray(shared[index][key], dtype=float).ravel() for key in shared_names])
-             if n_shared else np.zeros((v.size, 0)))
-        O = np.zeros((v.size, n_own))
-        if index > 0:
-            O[:, index - 1] = 1.0            # the record's own sensor offset
-        for key, column in own[index].items():
-            O[:, own_names.index(key)] = np.asarray(column, dtype=float).ravel()
-        blocks.append(np.column_stack([H, S, O]))
-        targets.append(y)
+    blocks = [_joint_block(index, A, columns, v.size, n_lin, n_hyst, anchor, factor, column_of, column_transform,
+                           shared[index], shared_names, own[index], own_names)
+              for index, ((A, columns), (v, _)) in enumerate(zip(raw, records))]
+    targets = [y for _, y in records]
     n_params = n_hyst + n_shared + n_own
     names = ((["a1 u³"] if cubic else []) + ["a2 u"] + [f"operator {i + 1} (r = {r[i]:.4g} V)" for i in groups]
              + ["offset"] + [f"extra {key!r}" for key in shared_names] + own_names)
@@ -1397,6 +1394,52 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
         merged_into={int(i): int(anchor[i]) for i in not_identifiable if anchor[i] >= 0},
         operator_travel_V=travel, condition_number=condition,
         record_predictions_um=(prediction,) + tuple(block @ theta for block in blocks[1:]))
+
+
+def _joint_records(records, initial_states, shared_extras, own_extras, fit_rows) -> tuple:
+    """``(records, shared, own, rows, shared_names, own_names)`` of :func:`identify_jointly`, checked:
+    the records as float arrays, each record's shared and own extras and fitted rows, the shared
+    extras' names and the own coefficients' names (each later record's sensor offset first)."""
+    records = [(np.asarray(v, dtype=float).ravel(), np.asarray(y, dtype=float).ravel()) for v, y in records]
+    n_records = len(records)
+    if n_records == 0 or len(initial_states) != n_records:
+        raise IdentificationError(f"{n_records} records but {len(initial_states)} initial states")
+    shared = list(shared_extras) if shared_extras is not None else [{} for _ in records]
+    own = list(own_extras) if own_extras is not None else [{} for _ in records]
+    rows = ([np.arange(v.size) for v, _ in records] if fit_rows is None
+            else [np.unique(np.asarray(k, dtype=int).ravel()) for k in fit_rows])
+    if not (len(shared) == len(own) == len(rows) == n_records):
+        raise IdentificationError("shared_extras, own_extras and fit_rows need one entry per record")
+    shared_names = list(shared[0])
+    if any(list(extras) != shared_names for extras in shared):
+        raise IdentificationError("shared_extras must name the same columns, in the same order, on every record")
+    own_names = [f"record {k + 1} offset" for k in range(1, n_records)] + [key for extras in own for key in extras]
+    if len(set(own_names)) != len(own_names) or set(own_names) & set(shared_names):
+        raise IdentificationError("own_extras' names must be unique over the records and the shared extras")
+    return records, shared, own, rows, shared_names, own_names
+
+
+def _joint_block(index: int, A, columns, n_samples: int, n_lin: int, n_hyst: int, anchor, factor, column_of,
+                 column_transform, shared: dict, shared_names, own: dict, own_names) -> np.ndarray:
+    """Record ``index``'s rows of the joint design matrix: its hysteresis columns (operators tied by
+    ``anchor`` and ``factor``, through ``column_transform``), the shared extras, then the own
+    coefficients (zero but for its own sensor offset and extras)."""
+    H = np.zeros((n_samples, n_hyst))
+    H[:, :n_lin] = A[:, :n_lin]
+    for i in range(len(anchor)):
+        if anchor[i] >= 0 and columns[i] >= 0:
+            H[:, column_of[anchor[i]]] += factor[i] * A[:, columns[i]]
+    H[:, n_hyst - 1] = 1.0
+    if column_transform is not None:
+        H = np.asarray(column_transform(H), dtype=float)
+    S = (np.column_stack([np.asarray(shared[key], dtype=float).ravel() for key in shared_names])
+         if shared_names else np.zeros((n_samples, 0)))
+    O = np.zeros((n_samples, len(own_names)))
+    if index > 0:
+        O[:, index - 1] = 1.0            # the record's own sensor offset
+    for key, column in own.items():
+        O[:, own_names.index(key)] = np.asarray(column, dtype=float).ravel()
+    return np.column_stack([H, S, O])
 
 
 def start_transient(voltage_V, displacement_um, **settings) -> int:

@@ -64,6 +64,36 @@ def bandwidth_markdown(summary) -> list:
     return lines
 
 
+def monte_carlo_markdown(monte_carlo: dict) -> list:
+    """The Monte-Carlo section of the demo's report: the spread of the tracking errors and
+    bandwidths over compensators drawn around the identified one (markdown lines)."""
+    lines = ["## Spread over model error (Monte-Carlo)",
+             f"{monte_carlo['draws']} compensators drawn around the identified one (weights "
+             f"±{monte_carlo['spread']['weights'] * 100:g} %, a2 ±{monte_carlo['spread']['a2'] * 100:g} %, "
+             f"a1 ±{monte_carlo['spread']['a1'] * 100:g} %, 1 σ), A = {monte_carlo['amplitude_um']:g} µm:",
+             "", "| configuration | e_m 5 % / median / 95 % | e_rms 5 % / median / 95 % "
+             "| −3 dB normalised (Hz) | −3 dB vs desired A (Hz) |", "|---|---|---|---|---|"]
+
+    def spread(b):
+        if b is None:
+            return "not crossed"
+        note = "" if b["crossed"] == monte_carlo["draws"] else f" ({b['crossed']} crossed)"
+        return f"{b['p5']:.0f} / {b['median']:.0f} / {b['p95']:.0f}{note}"
+
+    for path, s in monte_carlo["summary"].items():
+        m, r = s["max_error_pct"], s["rms_error_pct"]
+        lines.append(f"| {path} | {m['p5']:.2f} / {m['median']:.2f} / {m['p95']:.2f} | "
+                     f"{r['p5']:.2f} / {r['median']:.2f} / {r['p95']:.2f} | "
+                     + (f"{spread(s.get('minus3db_normalised_hz'))} | {spread(s.get('minus3db_vs_desired_hz'))} |"
+                        if monte_carlo.get("sweep") else "— | — |"))
+    if monte_carlo.get("sweep"):
+        sweep = monte_carlo["sweep"]
+        lines += ["", f"Bandwidths from a stepped sine of each draw at A = {monte_carlo['amplitude_um']:g} µm, "
+                      f"{sweep['points']} frequencies from {sweep['f_min_hz']:.0f} to {sweep['f_max_hz']:.0f} Hz "
+                      "(coarser than the sweep above, so the crossing is interpolated over wider steps)."]
+    return lines
+
+
 def rig_report(study, rows, bandwidths, monte_carlo, figures: dict, settings: dict, stage_facts: dict) -> str:
     """The report of ``pysim demo`` (markdown)."""
     rig = study.rig
@@ -97,31 +127,7 @@ def rig_report(study, rows, bandwidths, monte_carlo, figures: dict, settings: di
         "",
     ]
     if monte_carlo:
-        lines += ["## Spread over model error (Monte-Carlo)",
-                  f"{monte_carlo['draws']} compensators drawn around the identified one (weights "
-                  f"±{monte_carlo['spread']['weights'] * 100:g} %, a2 ±{monte_carlo['spread']['a2'] * 100:g} %, "
-                  f"a1 ±{monte_carlo['spread']['a1'] * 100:g} %, 1 σ), A = {monte_carlo['amplitude_um']:g} µm:",
-                  "", "| configuration | e_m 5 % / median / 95 % | e_rms 5 % / median / 95 % "
-                  "| −3 dB normalised (Hz) | −3 dB vs desired A (Hz) |", "|---|---|---|---|---|"]
-
-        def spread(b):
-            if b is None:
-                return "not crossed"
-            note = "" if b["crossed"] == monte_carlo["draws"] else f" ({b['crossed']} crossed)"
-            return f"{b['p5']:.0f} / {b['median']:.0f} / {b['p95']:.0f}{note}"
-
-        for path, s in monte_carlo["summary"].items():
-            m, r = s["max_error_pct"], s["rms_error_pct"]
-            lines.append(f"| {path} | {m['p5']:.2f} / {m['median']:.2f} / {m['p95']:.2f} | "
-                         f"{r['p5']:.2f} / {r['median']:.2f} / {r['p95']:.2f} | "
-                         + (f"{spread(s.get('minus3db_normalised_hz'))} | {spread(s.get('minus3db_vs_desired_hz'))} |"
-                            if monte_carlo.get("sweep") else "— | — |"))
-        if monte_carlo.get("sweep"):
-            sweep = monte_carlo["sweep"]
-            lines += ["", f"Bandwidths from a stepped sine of each draw at A = {monte_carlo['amplitude_um']:g} µm, "
-                          f"{sweep['points']} frequencies from {sweep['f_min_hz']:.0f} to {sweep['f_max_hz']:.0f} Hz "
-                          "(coarser than the sweep above, so the crossing is interpolated over wider steps)."]
-        lines.append("")
+        lines += [*monte_carlo_markdown(monte_carlo), ""]
     lines += [
         "## What sets each number",
         "- *Uncompensated*: the hysteresis itself — loop width and the amplitude-dependent slope of minor loops "

@@ -48,16 +48,7 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UserError(f"{out}: exists and is not a folder")
-    if args.points < 10:
-        raise UserError(f"--points must be at least 10, got {args.points}")
-    if args.monte_carlo < 0:
-        raise UserError(f"--monte-carlo must be 0 or more, got {args.monte_carlo}")
-    bad = [a for a in args.amplitudes if not (math.isfinite(a) and 0 < a <= 37.5)]
-    if bad:
-        raise UserError(f"--amplitudes must lie in (0, 37.5] µm around the 37.5 µm offset, got {bad[0]}")
+    out = _checked_out_folder(args)
     import control
 
     from pysim.cli.progress import Progress
@@ -65,7 +56,7 @@ def run(args) -> int:
     from pysim.cosim import plots
     from pysim.cosim.rig import PATHS, load_rig
     from pysim.cosim.tracking import TABLE_III_AMPLITUDES_UM
-    from pysim.studies.report import rig_report, table_iii_markdown
+    from pysim.studies.report import rig_report
     from pysim.studies.rig_study import RigStudy, bandwidth_summary
 
     start = time.monotonic()
@@ -118,6 +109,31 @@ def run(args) -> int:
 
             write_rig_ssp(rig, study.compensator, staging / "rig.ssp", "feedback+compensated",
                           platforms=args.ssp_platforms)
+    _print_summary(rig, study, rows, bandwidths, stage_facts, monte_carlo)
+    print(f"wrote {', '.join(list(FIGURES.values()) + ['report.md', 'results.json', 'rig.ssp'])} to {out} "
+          f"in {time.monotonic() - start:.1f} s")
+    return 0
+
+
+def _checked_out_folder(args) -> Path:
+    """The output folder, after checking every argument (one clear message for the first bad one)."""
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{out}: exists and is not a folder")
+    if args.points < 10:
+        raise UserError(f"--points must be at least 10, got {args.points}")
+    if args.monte_carlo < 0:
+        raise UserError(f"--monte-carlo must be 0 or more, got {args.monte_carlo}")
+    bad = [a for a in args.amplitudes if not (math.isfinite(a) and 0 < a <= 37.5)]
+    if bad:
+        raise UserError(f"--amplitudes must lie in (0, 37.5] µm around the 37.5 µm offset, got {bad[0]}")
+    return out
+
+
+def _print_summary(rig, study, rows, bandwidths, stage_facts, monte_carlo) -> None:
+    """The demo's results on the terminal: identification, Table III, bandwidths, Monte-Carlo."""
+    from pysim.studies.report import table_iii_markdown
+
     print(f"Compensator identified on the rig {rig.name}: {study.identification['samples']} samples, "
           f"fit RMS error {study.identification['fit_errors_pct']['rms_error_pct']:.3f} %")
     print()
@@ -140,9 +156,6 @@ def run(args) -> int:
                      if band else ""))
     print()
     print("rig.ssp: the rig (feedback + compensated) as connected FMUs, for fmpy.ssp.simulate_ssp or your tool")
-    print(f"wrote {', '.join(list(FIGURES.values()) + ['report.md', 'results.json', 'rig.ssp'])} to {out} "
-          f"in {time.monotonic() - start:.1f} s")
-    return 0
 
 
 def _record_section(name, staging, plots) -> dict:
