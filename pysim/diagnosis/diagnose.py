@@ -712,19 +712,7 @@ class _DiagnosisRun:
         self.candidates = candidates = candidates_on_either_base(
             fitter, run, baseline, richer, EFFECTS, self._scored_on_both_records if self.has_second else None)
 
-        self.shaped_on_second = []
-        if self.has_second:
-            o = self.options
-            try:
-                second_unidentified = identify(self.v2, self.y2, n_operators=o.n_operators, model=o.model,
-                                               operator=o.operator, require_excitation=False).unidentified_reason
-            except IdentificationError:
-                second_unidentified = ""
-            if second_unidentified:
-                self.shaped_on_second = dynamics_where_they_show(
-                    fitter, run, self.rate_independent, candidates, v, self.v2, self.y2,
-                    record_noise_sigma(y - baseline.prediction_um, y))
-
+        self.shaped_on_second = self._dynamics_shaped_on_second_record() if self.has_second else []
         noise, self.noise_free = models_noise_sigma(
             [y - ev.prediction_um for ev in [baseline, richer, *candidates.values()]], y)
         self.noise = noise
@@ -742,23 +730,7 @@ class _DiagnosisRun:
         consistent = {c: removal_holds(y, self.rate_independent.cv_prediction_um, ev.cv_prediction_um)
                       for c, ev in candidates.items()}
 
-        # the same blocks scored only where every operator of the richer model also stays inside the
-        # states its training blocks showed: a cause must remove error there as well.  Minor loops that
-        # peak where no other block does leave operators in such states, every rate-independent model
-        # extrapolates there, and a slow candidate that draws the same trend could be named for it
-        # (only where two blocks or more score MIN_SCORED_PER_BLOCK such samples: fewer prove nothing)
-        seen_folds = well_scored(make_folds(v, settle=settle_samples(v.size),
-                                            operator_outputs_V=fitter.operator_outputs_V()))
-        removed_seen = None
-        if seen_folds is not None:
-
-            def where_seen(ev):
-                return blocked_score(y, ev.cv_prediction_um, seen_folds)[1]
-
-            reference_seen = min(where_seen(baseline), where_seen(richer))
-            removed_seen = {c: reference_seen - where_seen(ev) for c, ev in candidates.items()}
-            for c, ev in candidates.items():
-                ev.removed_where_states_seen_sigma2 = removed_seen[c] / noise**2 if noise > 0 else 0.0
+        removed_seen = self._removed_where_states_seen()
         self.verdict = shape_not_unexplained(decide({c: ev.mse_um2 for c, ev in candidates.items()},
                                                     baseline.mse_um2, richer.mse_um2, noise, complexity, consistent,
                                                     self._outranks, removed_seen), first_shape)
@@ -780,6 +752,44 @@ class _DiagnosisRun:
                         self._gains(ev)
                         candidates[c] = ev
         self.cv_verdict = self.verdict
+
+    def _dynamics_shaped_on_second_record(self) -> list:
+        """The dynamics fitted where they show, when the second record identifies no operator on its own
+        (:func:`dynamics_where_they_show`; none otherwise)."""
+        o = self.options
+        try:
+            second_unidentified = identify(self.v2, self.y2, n_operators=o.n_operators, model=o.model,
+                                           operator=o.operator, require_excitation=False).unidentified_reason
+        except IdentificationError:
+            second_unidentified = ""
+        if not second_unidentified:
+            return []
+        return dynamics_where_they_show(self.fitter, self.run, self.rate_independent, self.candidates, self.v,
+                                        self.v2, self.y2, record_noise_sigma(self.y - self.baseline.prediction_um,
+                                                                             self.y))
+
+    def _removed_where_states_seen(self):
+        """What each candidate removes (µm², against the better rate-independent model) where every
+        operator stays inside the states its training blocks showed; None where too few samples are."""
+        # the same blocks scored only where every operator of the richer model also stays inside the
+        # states its training blocks showed: a cause must remove error there as well.  Minor loops that
+        # peak where no other block does leave operators in such states, every rate-independent model
+        # extrapolates there, and a slow candidate that draws the same trend could be named for it
+        # (only where two blocks or more score MIN_SCORED_PER_BLOCK such samples: fewer prove nothing)
+        y, noise, candidates = self.y, self.noise, self.candidates
+        seen_folds = well_scored(make_folds(self.v, settle=settle_samples(self.v.size),
+                                            operator_outputs_V=self.fitter.operator_outputs_V()))
+        if seen_folds is None:
+            return None
+
+        def where_seen(ev):
+            return blocked_score(y, ev.cv_prediction_um, seen_folds)[1]
+
+        reference_seen = min(where_seen(self.baseline), where_seen(self.richer))
+        removed_seen = {c: reference_seen - where_seen(ev) for c, ev in candidates.items()}
+        for c, ev in candidates.items():
+            ev.removed_where_states_seen_sigma2 = removed_seen[c] / noise**2 if noise > 0 else 0.0
+        return removed_seen
 
     def _judge_on_second_record(self):
         """Every model scored on the second record, which names the cause (unless the first record
@@ -927,34 +937,42 @@ class _DiagnosisRun:
             # first; the named ones stay, because the holds do not see how a model carries the
             # hysteresis to a new input (independent pair 153: creep, delivered for predicting the
             # second record at 6 σ² against the lag's 357, leaves the most motion in the holds)
-            named = verdict["cause"]
-            preferred = preferred_by_holds(voters, named, [c for c in candidates if c not in ("drift", named)],
-                                           prediction)
-            if preferred is not None:
-                winners, motions = preferred
-                kept = verdict["causes"]
-                # the member the second record chose to deliver stays first; the others follow the holds
-                lead = kept[:1] if self.delivery_remark else ()
-                causes_now = tuple(dict.fromkeys(lead + tuple(winners) + tuple(kept)))
-                held_sentence = (
-                    f"in the holds of {' and '.join(h.name for h in voters if h.excess_sigma2 >= NOISE_FRACTION)}, "
-                    "where every model's hysteresis part stands still and the motion is the effect alone, "
-                    + ", ".join(f"{c}'s model leaves {motions[c]:.3g} σ²" for c in winners)
-                    + f", {named}'s {motions[named]:.3g} σ² and the plain fit's {motions['plain']:.3g} σ²: "
-                    f"the holds add {' and '.join(winners)} to the causes named")
-                verdict = dict(verdict, cause=causes_now[0], causes=causes_now, best=causes_now[0])
-                if validation is not None:
-                    validation.update(cause=causes_now[0], causes=list(causes_now), verdict_by="holds",
-                                      holds_motion_sigma2={c: float(m) for c, m in motions.items()})
-                    if not self.delivery_remark:
-                        # no member was chosen yet: the one of the new set whose model predicts the
-                        # second record best, as for any set
-                        verdict, self.delivery_remark = self._delivered_by_second_record(verdict)
+            verdict, held_sentence = self._joined_by_moving_holds(verdict, voters, prediction)
         self.verdict, self.still_in_holds, self.held_sentence = verdict, still_in_holds, held_sentence
         if still_in_holds:
             self._names_nothing()
         if validation is not None and (still_in_holds or held_sentence):
             validation["note"] += f"; {still_in_holds or held_sentence}"
+
+    def _joined_by_moving_holds(self, verdict: dict, voters, prediction) -> tuple:
+        """``(verdict, sentence)``: the causes whose models follow the moving holds far better than the
+        named one's join the verdict first (``prediction(cause, record index)``; sentence "" when none)."""
+        validation, candidates = self.validation, self.candidates
+        named = verdict["cause"]
+        preferred = preferred_by_holds(voters, named, [c for c in candidates if c not in ("drift", named)],
+                                       prediction)
+        if preferred is None:
+            return verdict, ""
+        winners, motions = preferred
+        kept = verdict["causes"]
+        # the member the second record chose to deliver stays first; the others follow the holds
+        lead = kept[:1] if self.delivery_remark else ()
+        causes_now = tuple(dict.fromkeys(lead + tuple(winners) + tuple(kept)))
+        held_sentence = (
+            f"in the holds of {' and '.join(h.name for h in voters if h.excess_sigma2 >= NOISE_FRACTION)}, "
+            "where every model's hysteresis part stands still and the motion is the effect alone, "
+            + ", ".join(f"{c}'s model leaves {motions[c]:.3g} σ²" for c in winners)
+            + f", {named}'s {motions[named]:.3g} σ² and the plain fit's {motions['plain']:.3g} σ²: "
+            f"the holds add {' and '.join(winners)} to the causes named")
+        verdict = dict(verdict, cause=causes_now[0], causes=causes_now, best=causes_now[0])
+        if validation is not None:
+            validation.update(cause=causes_now[0], causes=list(causes_now), verdict_by="holds",
+                              holds_motion_sigma2={c: float(m) for c, m in motions.items()})
+            if not self.delivery_remark:
+                # no member was chosen yet: the one of the new set whose model predicts the
+                # second record best, as for any set
+                verdict, self.delivery_remark = self._delivered_by_second_record(verdict)
+        return verdict, held_sentence
 
     def _each_record_alone(self):
         """When the first record shows no effect and only its models' prediction of the second is left
@@ -1485,7 +1503,65 @@ def _second_record_shows_none(v2, y2, sample_rate_hz, validate_source, **options
             "out of sample)"), alone
 
 
+def _why_named(verdict, baseline, richer, candidates, noise, validation) -> str:
+    """The ``why`` of a named effect: by the second record, by the steps, or by the blocks."""
+    cause = verdict["cause"]
+    ref = "richer" if richer.mse_um2 < baseline.mse_um2 else "baseline"
+    ev = candidates[cause]
+    if validation is not None:
+        row = validation["table"][cause]
+        text = (f"{cause} lowers the error on the second record significantly"
+                + ("" if not ev.significant or verdict.get("told_apart") else
+                   " and, of the candidates that do so on both records, the most on both together"
+                   if verdict.get("best") in (None, cause) else
+                   " and, of the candidates that do so on both records and tie, the one with the fewest "
+                   "parameters") + ": second record RMS "
+                f"{validation['table']['baseline']['rms_pct']:.3g} % → {row['rms_pct']:.3g} % of range (richer "
+                f"rate-independent model {validation['table']['richer']['rms_pct']:.3g} %), cross-validated "
+                f"{baseline.rms_pct:.3g} % → {ev.rms_pct:.3g} %")
+    elif verdict.get("steps"):
+        steps = verdict["steps"]
+        text = (f"{cause} predicts the responses to {steps['windows']} step{'s' if steps['windows'] > 1 else ''} "
+                f"into holds best, each left out of its fit: of the {steps['excess_sigma2']:.3g} σ² that the "
+                f"best rate-independent model leaves above the noise in the {steps['samples']} samples after "
+                f"them, it removes {100 * steps['removed_share'][cause]:.0f} % (the median over the "
+                f"cross-validation blocks, {baseline.rms_pct:.3g} % → {ev.rms_pct:.3g} % of range, does not "
+                f"weigh so few samples; σ = {noise:.3g} µm)")
+    else:
+        text = (f"{cause} lowers the cross-validated RMS error the most: {baseline.rms_pct:.3g} % → "
+                f"{ev.rms_pct:.3g} % of range ({ev.gain_pct:.1f} % less; {ev.gain_vs_richer_pct:.1f} % less "
+                f"than the best rate-independent model, the {ref}; {ev.excess_over_noise:.3g} σ² removed, "
+                f"σ = {noise:.3g} µm)")
+    others = [c for c in verdict["causes"] if c != cause]
+    if others:
+        text += f"; {', '.join(others)} explain it as well"
+    return text + ("" if validation is None else validation["remark"])
+
+
+def _why_nothing_on_second_record(cv_verdict, baseline, richer, candidates, validation) -> str:
+    """The ``why`` of a verdict without a cause that the second record gave, in its own figures
+    ("" when no candidate was scored there)."""
+    scored = [ev for ev in candidates.values() if ev.validation is not None]
+    if not scored:
+        return ""
+    best2 = min(scored, key=lambda ev: ev.validation["mse_um2"])
+    ref2 = min(baseline.validation["mse_um2"], richer.validation["mse_um2"])
+    noise2 = validation["noise_um"]
+    gain2 = rms_gain_pct(best2.validation["mse_um2"], ref2)
+    first = ""
+    if cv_verdict is not None and cv_verdict.get("cause") in EFFECTS:
+        named = candidates[cv_verdict["cause"]]
+        first = (f"; on the record fitted, {named.cause} removed {named.excess_over_noise:.3g} σ² out of "
+                 "sample, which the second record does not confirm")
+    return (f"no candidate lowers the error on the second record significantly against both the "
+            f"baseline and the richer rate-independent model: the best there, {best2.cause}, removes "
+            f"{(ref2 - best2.validation['mse_um2']) / noise2**2:.3g} σ² (needs {NOISE_FRACTION}) and "
+            f"{gain2:.1f} % of the RMS error (needs {MIN_GAIN_PCT}){first}; σ = {noise2:.3g} µm "
+            "there" + validation["remark"])
+
+
 def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -> str:
+    """How the verdict was reached, in the figures that decided it (the MPI models' part of ``why``)."""
     if verdict.get("structure") and validation is not None:
         # named by how the structures fit both records (structure_on_both); the remark says by how much
         cause, table = verdict["cause"], validation["table"]
@@ -1497,38 +1573,9 @@ def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -
         # the second record could not decide: the cross-validated verdict, and why it stands
         return _why(verdict, cv_verdict, baseline, richer, candidates, noise, None) + validation["remark"]
     by = "on the second record" if validation is not None else "out of sample (blocked cross-validation)"
-    ref = "richer" if richer.mse_um2 < baseline.mse_um2 else "baseline"
     cause = verdict["cause"]
     if cause in EFFECTS:
-        ev = candidates[cause]
-        if validation is not None:
-            row = validation["table"][cause]
-            text = (f"{cause} lowers the error on the second record significantly"
-                    + ("" if not ev.significant or verdict.get("told_apart") else
-                       " and, of the candidates that do so on both records, the most on both together"
-                       if verdict.get("best") in (None, cause) else
-                       " and, of the candidates that do so on both records and tie, the one with the fewest "
-                       "parameters") + ": second record RMS "
-                    f"{validation['table']['baseline']['rms_pct']:.3g} % → {row['rms_pct']:.3g} % of range (richer "
-                    f"rate-independent model {validation['table']['richer']['rms_pct']:.3g} %), cross-validated "
-                    f"{baseline.rms_pct:.3g} % → {ev.rms_pct:.3g} %")
-        elif verdict.get("steps"):
-            steps = verdict["steps"]
-            text = (f"{cause} predicts the responses to {steps['windows']} step{'s' if steps['windows'] > 1 else ''} "
-                    f"into holds best, each left out of its fit: of the {steps['excess_sigma2']:.3g} σ² that the "
-                    f"best rate-independent model leaves above the noise in the {steps['samples']} samples after "
-                    f"them, it removes {100 * steps['removed_share'][cause]:.0f} % (the median over the "
-                    f"cross-validation blocks, {baseline.rms_pct:.3g} % → {ev.rms_pct:.3g} % of range, does not "
-                    f"weigh so few samples; σ = {noise:.3g} µm)")
-        else:
-            text = (f"{cause} lowers the cross-validated RMS error the most: {baseline.rms_pct:.3g} % → "
-                    f"{ev.rms_pct:.3g} % of range ({ev.gain_pct:.1f} % less; {ev.gain_vs_richer_pct:.1f} % less "
-                    f"than the best rate-independent model, the {ref}; {ev.excess_over_noise:.3g} σ² removed, "
-                    f"σ = {noise:.3g} µm)")
-        others = [c for c in verdict["causes"] if c != cause]
-        if others:
-            text += f"; {', '.join(others)} explain it as well"
-        return text + ("" if validation is None else validation["remark"])
+        return _why_named(verdict, baseline, richer, candidates, noise, validation)
     lost = verdict.get("not_where_states_seen") or (cv_verdict or {}).get("not_where_states_seen") or ()
     lost_text = ""
     if lost:
@@ -1547,22 +1594,9 @@ def _why(verdict, cv_verdict, baseline, richer, candidates, noise, validation) -
         return lost_text + f", so nothing is named; σ = {noise:.3g} µm"
     if validation is not None and baseline.validation is not None and richer.validation is not None:
         # named by the second record: its own figures (the first record's would contradict the verdict)
-        scored = [ev for ev in candidates.values() if ev.validation is not None]
-        if scored:
-            best2 = min(scored, key=lambda ev: ev.validation["mse_um2"])
-            ref2 = min(baseline.validation["mse_um2"], richer.validation["mse_um2"])
-            noise2 = validation["noise_um"]
-            gain2 = rms_gain_pct(best2.validation["mse_um2"], ref2)
-            first = ""
-            if cv_verdict is not None and cv_verdict.get("cause") in EFFECTS:
-                named = candidates[cv_verdict["cause"]]
-                first = (f"; on the record fitted, {named.cause} removed {named.excess_over_noise:.3g} σ² out of "
-                         "sample, which the second record does not confirm")
-            return (f"no candidate lowers the error on the second record significantly against both the "
-                    f"baseline and the richer rate-independent model: the best there, {best2.cause}, removes "
-                    f"{(ref2 - best2.validation['mse_um2']) / noise2**2:.3g} σ² (needs {NOISE_FRACTION}) and "
-                    f"{gain2:.1f} % of the RMS error (needs {MIN_GAIN_PCT}){first}; σ = {noise2:.3g} µm "
-                    "there" + validation["remark"])
+        on_second = _why_nothing_on_second_record(cv_verdict, baseline, richer, candidates, validation)
+        if on_second:
+            return on_second
     return (f"no candidate lowers the error {by} significantly against both the baseline and the richer "
             f"rate-independent model: the best, {best.cause}, removes {best.excess_over_noise:.3g} σ² "
             f"(needs {NOISE_FRACTION}) and {best.gain_vs_richer_pct:.1f} % of the RMS error (needs "
