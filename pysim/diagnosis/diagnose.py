@@ -1061,7 +1061,9 @@ class _DiagnosisRun:
         if not (named_before == "unexplained" or none_asked or creep_unseen
                 or (named_left >= UNEXPLAINED_LEVEL and _general_model_can_judge(self.candidates[named_before]))):
             return None
-        if named_before == "none":
+        if named_before == "unexplained":
+            reason = ""
+        elif named_before == "none":
             reason = f"the plain fit of the first record leaves the second {plain_left:.3g} σ² above its noise"
         elif creep_unseen:
             reason = "the general model with creep, fitted on both records, puts no weight on any creep mode"
@@ -1176,7 +1178,9 @@ class _DiagnosisRun:
                 creep_unseen = max(self.halves_fits["creep"].creep["weights"]) <= NO_CREEP_WEIGHT
             if not (creep_unseen or creep_half_misses):
                 return
-        if named == "none":
+        if named == "unexplained":
+            reason = ""
+        elif named == "none":
             reason = f"the plain fit leaves the record's held-out samples {plain_left:.3g} σ² above its noise"
         elif creep_unseen:
             reason = "the general model with creep, fitted on the record's halves, puts no weight on any creep mode"

@@ -815,8 +815,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     if warm is not None and warm.size != r.size:
         raise IdentificationError(f"start_state has {warm.size} entries, not {r.size}")
     state0, A, theta, active, condition, sse = _state_and_parameters(
-        window, columns, state0, warm, estimate, column_transform, low, high, u, y, rows, extra_matrix, G, h,
-        (lo, hi), input_offset, operator)
+        window, columns, state0, demagnetised, warm, estimate, column_transform, low, high, u, y, rows,
+        extra_matrix, G, h, (lo, hi), input_offset, operator)
 
     a1 = float(theta[0]) if cubic else 0.0
     a2 = float(theta[columns.n_lin - 1])
@@ -873,13 +873,12 @@ def _excitation_of_rows(v, rows, first: int, stop: int, r, low, high, span_V: fl
     return travel, unexcited_message, anchor, factor, static_curve
 
 
-def _state_and_parameters(window, columns, state0, warm, estimate: bool, column_transform, low, high, u, y, rows,
-                          extra_matrix, G, h, fitted_range_V, input_offset: float, operator: str) -> tuple:
+def _state_and_parameters(window, columns, state0, demagnetised, warm, estimate: bool, column_transform, low, high,
+                          u, y, rows, extra_matrix, G, h, fitted_range_V, input_offset: float, operator: str) -> tuple:
     """``(state0, A, theta, active, condition, sse)``: the operator state before the first sample
     (estimated with the weights when ``estimate``, from ``warm`` or many starts; else ``state0``) and
     the parameters fitted with it, through ``column_transform`` when given; ``A`` is the whole record's
-    design matrix."""
-    demagnetised = np.clip(np.zeros(low.shape[1]), low[0], high[0])
+    design matrix; ``demagnetised`` is the demagnetised state within the first sample's bounds."""
     transient = bool(window.transient_rows.size)
     if estimate and transient and warm is not None and column_transform is not None:
         state0 = warm         # the estimate is refined through the transform below
