@@ -421,3 +421,19 @@ def test_a_joint_fit_shares_the_shared_extras_and_keeps_each_records_own():
     with pytest.raises(IdentificationError, match="same columns"):
         identify_jointly(shaped, thresholds_V=truth.thresholds_V, input_offset_V=0.0, initial_states=states,
                          voltage_range_V=(0.0, 100.0), shared_extras=[{"slow": slow[0]}, {"other": slow[1]}])
+
+
+def test_regressors_of_some_rows_are_those_rows_of_the_whole_matrix():
+    # the operators run over the whole record before the rows are taken: a row's columns depend on
+    # the input before it, so the rows alone would start the operators from another state
+    rng = np.random.default_rng(11)
+    v = np.cumsum(rng.normal(0.0, 4.0, 3000)) % 150.0
+    thresholds = eq13_thresholds(8, 150.0)
+    state = rng.uniform(0.0, 20.0, thresholds.size)
+    whole, columns = regressors(v, thresholds, "osp", 0.0, True, initial_state=state)
+    for rows in (slice(1000, 3000), np.array([5, 17, 2999, 1500])):
+        part, part_columns = regressors(v, thresholds, "osp", 0.0, True, initial_state=state, rows=rows)
+        assert part_columns == columns
+        np.testing.assert_array_equal(part, whole[rows])
+    from_row_1000, _ = regressors(v[1000:], thresholds, "osp", 0.0, True, initial_state=state)
+    assert not np.array_equal(from_row_1000, whole[1000:])

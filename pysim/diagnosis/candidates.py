@@ -557,8 +557,8 @@ class CandidateFitter:
         scores = []
         for state in self.stage_states(base, x):
             A, _ = regressors(x, base.thresholds_V, self.operator, base.input_offset_V, self.cubic,
-                              initial_state=state)
-            scores.append(_lsq_sse(A[self.search_rows], self.y[self.search_rows]))
+                              initial_state=state, rows=self.search_rows)
+            scores.append(_lsq_sse(A, self.y[self.search_rows]))
         return min(scores)
 
     def _input_search(self, base: Family, kind: str, grid: np.ndarray) -> float:

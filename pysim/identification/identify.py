@@ -221,13 +221,16 @@ def operator_bounds(voltage_V, thresholds_V, operator: str, input_offset_V: floa
 
 
 def regressors(voltage_V, thresholds_V, operator: str, input_offset_V: float, cubic: bool,
-               initial_state=None):
+               initial_state=None, rows=None):
     """Design matrix of the linear-in-parameters model.
 
     Parameters
     ----------
     initial_state : array_like, optional
         Operator state before the first sample (default: demagnetised).
+    rows : slice or array of int, optional
+        Only these rows of the matrix (the operators still run over the whole record: a search that
+        scores a part of it need not copy the rest).
 
     Returns
     -------
@@ -248,6 +251,8 @@ def regressors(voltage_V, thresholds_V, operator: str, input_offset_V: float, cu
                             input_offset_V=input_offset_V, name="probe")
     _, operators = probe.simulate(voltage_V, initial_state, return_operators=True)
     u = np.asarray(voltage_V, dtype=float) - input_offset_V
+    if rows is not None:
+        operators, u = operators[rows], u[rows]
     cols = ([u**3] if cubic else []) + [u]
     operator_columns = []
     for i, threshold in enumerate(r):
@@ -323,7 +328,8 @@ def _triangular_factor(A, y):
     """
     try:
         R1 = cholesky(A.T @ A, lower=False)
-        Q1 = solve_triangular(R1, A.T, trans="T", lower=False).T
+        # (the Gram matrix's check already refused a non-finite A: not scanned again row by row)
+        Q1 = solve_triangular(R1, A.T, trans="T", lower=False, check_finite=False).T
         R2 = cholesky(Q1.T @ Q1, lower=False)
         c = solve_triangular(R2, Q1.T @ y, trans="T", lower=False)
         return R2 @ R1, c
@@ -565,8 +571,12 @@ def operator_travel(low, high, rows: slice, voltage_V=None) -> np.ndarray:
     follows the input, which the linear term already does)."""
     lo, hi = low[rows], high[rows]
     # |lo − hi| ≤ atol: np.isclose with rtol = 0 on finite values, without its temporaries
-    fixed = np.abs(lo - hi) <= 1e-9 * max(1.0, float(np.max(np.abs(hi))))
-    steps = np.abs(np.diff(lo, axis=0)) * (fixed[1:] & fixed[:-1])
+    gap = lo - hi
+    np.abs(gap, out=gap)
+    fixed = gap <= 1e-9 * max(1.0, float(hi.max(initial=0.0)), -float(hi.min(initial=0.0)))
+    steps = np.diff(lo, axis=0)
+    np.abs(steps, out=steps)
+    steps *= fixed[1:] & fixed[:-1]
     if not isinstance(rows, slice):
         steps[np.diff(np.asarray(rows)) != 1] = 0.0        # no travel across a gap between blocks
     if voltage_V is not None:
@@ -895,7 +905,7 @@ def _state_and_parameters(window, columns, state0, demagnetised, warm, estimate:
     else:
         _, theta, active, condition, sse = window.solve(state0)
     if column_transform is None:
-        A = np.column_stack([columns.design(state0, low, high, u), extra_matrix])
+        A = columns.design(state0, low, high, u, extra_matrix)
     else:
         state0, A, theta, active, condition, sse = _fit_through_transform(
             columns, column_transform, low, high, u, y, rows, extra_matrix, G, h,
@@ -973,21 +983,33 @@ class _Columns:
                       + [f"operator {i + 1} (r = {r[i]:.4g} V)" for i in self.own]
                       + ["offset"] + [f"extra {k!r}" for k in self.extra_names])
 
-    def design(self, state, lo_b, hi_b, uu) -> np.ndarray:
+    def design(self, state, lo_b, hi_b, uu, extra=None) -> np.ndarray:
         """The hysteresis columns for the rows whose operator bounds are ``lo_b``, ``hi_b`` (rows ×
-        operators) and shifted input ``uu``, from the operator ``state`` before them."""
+        operators) and shifted input ``uu``, from the operator ``state`` before them; the columns of
+        ``extra`` (rows × k), when given, follow them."""
         n_lin, n_hyst, own = self.n_lin, self.n_hyst, self.own
-        ops = np.minimum(np.maximum(state, lo_b), hi_b)
-        A = np.empty((uu.size, n_hyst))
+        n_extra = 0 if extra is None else extra.shape[1]
+        A = np.empty((uu.size, n_hyst + n_extra))
         if self.cubic:
             A[:, 0] = uu**3
         A[:, n_lin - 1] = uu
         if own:                                  # their columns are consecutive, in order
-            A[:, n_lin:n_lin + len(own)] = ops[:, own]
+            block = A[:, n_lin:n_lin + len(own)]
+            first, end = own[0], own[-1] + 1
+            if end - first == len(own):
+                # operators first..end-1 (the usual case): clamped in place, without temporaries (the
+                # design is rebuilt for every state tried, on every fitted row)
+                np.maximum(state[first:end], lo_b[:, first:end], out=block)
+                np.minimum(block, hi_b[:, first:end], out=block)
+            else:
+                block[...] = np.minimum(np.maximum(state[own], lo_b[:, own]), hi_b[:, own])
         for i in self.not_identifiable:
             if self.anchor[i] >= 0:
-                A[:, self.column_of[self.anchor[i]]] += self.factor[i] * ops[:, i]
+                A[:, self.column_of[self.anchor[i]]] += self.factor[i] * np.minimum(np.maximum(state[i], lo_b[:, i]),
+                                                                                     hi_b[:, i])
         A[:, n_hyst - 1] = 1.0
+        if n_extra:
+            A[:, n_hyst:] = extra
         return A
 
     def weights_of(self, theta) -> np.ndarray:
@@ -1064,7 +1086,7 @@ class _WindowFit:
         """The fitted rows' design matrix (hysteresis columns, then extras) for ``state``."""
         design = self.columns.design
         if self._base is None:
-            self._base = np.column_stack([design(state, self.low_w, self.high_w, self.u_w), self.extra_w])
+            self._base = design(state, self.low_w, self.high_w, self.u_w, self.extra_w)
             return self._base
         A = self._base.copy()
         if self.transient_rows.size:
@@ -1105,7 +1127,7 @@ class _WindowFit:
             return state
         lt, ht = self.low_w[k], self.high_w[k]
         zero = np.zeros(state.size)
-        rest = self.y_w[k] - np.column_stack([self.columns.design(zero, lt, ht, self.u_w[k]), self.extra_w[k]]) @ theta
+        rest = self.y_w[k] - self.columns.design(zero, lt, ht, self.u_w[k], self.extra_w[k]) @ theta
         rest = rest + (np.minimum(np.maximum(zero, lt), ht) @ b)
 
         def residual(s):
@@ -1152,14 +1174,14 @@ class _WindowFit:
         design, transient_rows = self.columns.design, self.transient_rows
         low_w, high_w, u_w, y_w, extra_w = self.low_w, self.high_w, self.u_w, self.y_w, self.extra_w
         fixed = np.setdiff1d(np.arange(u_w.size), transient_rows)
-        A0 = np.column_stack([design(states[0], low_w[fixed], high_w[fixed], u_w[fixed]), extra_w[fixed]])
+        A0 = design(states[0], low_w[fixed], high_w[fixed], u_w[fixed], extra_w[fixed])
         gram0, moment0, yy0 = A0.T @ A0, A0.T @ y_w[fixed], float(y_w[fixed] @ y_w[fixed])
         lt, ht, ut, et, yt = (low_w[transient_rows], high_w[transient_rows], u_w[transient_rows],
                               extra_w[transient_rows], y_w[transient_rows])
         yy = yy0 + float(yt @ yt)
         scores = []
         for s in states:
-            At = np.column_stack([design(s, lt, ht, ut), et])
+            At = design(s, lt, ht, ut, et)
             gram, moment = gram0 + At.T @ At, moment0 + At.T @ yt
             scale = np.sqrt(np.maximum(np.diag(gram), 1e-300))
             try:
@@ -1182,8 +1204,8 @@ class _WindowFit:
         if from_settled and settled.size >= max(3 * n_params, self.u_w.size // 10):
             # weights from the samples whose state the input has fixed, then
             # the states that fit the transient best for those weights
-            A_s = np.column_stack([self.columns.design(demagnetised, self.low_w[settled], self.high_w[settled],
-                                                       self.u_w[settled]), self.extra_w[settled]])
+            A_s = self.columns.design(demagnetised, self.low_w[settled], self.high_w[settled], self.u_w[settled],
+                                      self.extra_w[settled])
             try:
                 theta_s = solve_lsi(A_s, self.y_w[settled], self.G, self.h, self.columns.names)[0]
                 state = demagnetised.copy()
