@@ -62,9 +62,8 @@ def slew_limit(voltage_V, rate_V_per_s: float, sample_period_s: float) -> np.nda
     if not (math.isfinite(rate_V_per_s) and rate_V_per_s > 0):
         return v.copy()
     step = rate_V_per_s * sample_period_s
-    out = np.empty_like(v)
     if v.size == 0:
-        return out
+        return v.copy()
     x = float(v[0])
     dv = np.abs(np.diff(v))
     if dv.size and float(dv.max()) <= step:
@@ -79,8 +78,7 @@ def slew_limit(voltage_V, rate_V_per_s: float, sample_period_s: float) -> np.nda
         else:
             x = target
         followed.append(x)
-    out[:] = followed
-    return out
+    return np.array(followed, dtype=float)
 
 
 def apply_input_stage(kind: str, parameter: float, voltage_V, sample_period_s: float) -> np.ndarray:

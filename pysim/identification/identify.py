@@ -993,6 +993,11 @@ class _Columns:
         if self.cubic:
             A[:, 0] = uu**3
         A[:, n_lin - 1] = uu
+
+        def outputs(which):
+            # the operators' outputs from ``state``: clamped between their bounds on every row
+            return np.minimum(np.maximum(state[which], lo_b[:, which]), hi_b[:, which])
+
         if own:                                  # their columns are consecutive, in order
             block = A[:, n_lin:n_lin + len(own)]
             first, end = own[0], own[-1] + 1
@@ -1002,11 +1007,10 @@ class _Columns:
                 np.maximum(state[first:end], lo_b[:, first:end], out=block)
                 np.minimum(block, hi_b[:, first:end], out=block)
             else:
-                block[...] = np.minimum(np.maximum(state[own], lo_b[:, own]), hi_b[:, own])
+                block[...] = outputs(own)
         for i in self.not_identifiable:
             if self.anchor[i] >= 0:
-                A[:, self.column_of[self.anchor[i]]] += self.factor[i] * np.minimum(np.maximum(state[i], lo_b[:, i]),
-                                                                                     hi_b[:, i])
+                A[:, self.column_of[self.anchor[i]]] += self.factor[i] * outputs(i)
         A[:, n_hyst - 1] = 1.0
         if n_extra:
             A[:, n_hyst:] = extra
