@@ -1155,7 +1155,7 @@ class _DiagnosisRun:
             # minor-loop records, where the rate-independent models extrapolate, are asked and stay `none`)
             if plain_left < PLAIN_MISS_LEVEL or self.still_in_holds:
                 return
-        creep_unseen, halves = False, None
+        creep_unseen = False
         # a named creep whose own model leaves the record between PLAIN_MISS_LEVEL and UNEXPLAINED_LEVEL
         # σ² above its noise is put to the general model too, but only another effect replaces it: on
         # one record the general model alone takes up creep as a loop shape (outside-class seeds 3, 59,
@@ -1174,8 +1174,7 @@ class _DiagnosisRun:
             if named == "creep":
                 # the same fit gives the model delivered its modes (_choose_model_delivered), and the
                 # effects on the halves below take it as it is
-                halves = self._halves_parts()
-                self.halves_fits = {"creep": halves.fit("creep")}
+                self.halves_fits = {"creep": self._halves_parts().fit("creep")}
                 creep_unseen = max(self.halves_fits["creep"].creep["weights"]) <= NO_CREEP_WEIGHT
             if not (creep_unseen or creep_half_misses):
                 return

@@ -824,9 +824,15 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     warm = None if start_state is None else np.clip(np.asarray(start_state, dtype=float).ravel(), low[0], high[0])
     if warm is not None and warm.size != r.size:
         raise IdentificationError(f"start_state has {warm.size} entries, not {r.size}")
+    # without a start to refine, the estimation screens the extreme states and short histories over the
+    # fitted range (where some fitted row still remembers the state)
+    screened = ([demagnetised, low[0].copy(), high[0].copy()] + [
+                    np.clip(s, low[0], high[0])
+                    for s in short_history_states(np.linspace(lo, hi, 9) - input_offset, r, operator)]
+                if estimate and warm is None and window.transient_rows.size else None)
+    record = _RecordArrays(low, high, u, y, rows, extra_matrix, G, h)
     state0, A, theta, active, condition, sse = _state_and_parameters(
-        window, columns, state0, demagnetised, warm, estimate, column_transform, low, high, u, y, rows,
-        extra_matrix, G, h, (lo, hi), input_offset, operator)
+        window, columns, record, column_transform, state0, demagnetised, warm if estimate else None, screened)
 
     a1 = float(theta[0]) if cubic else 0.0
     a2 = float(theta[columns.n_lin - 1])
@@ -883,33 +889,45 @@ def _excitation_of_rows(v, rows, first: int, stop: int, r, low, high, span_V: fl
     return travel, unexcited_message, anchor, factor, static_curve
 
 
-def _state_and_parameters(window, columns, state0, demagnetised, warm, estimate: bool, column_transform, low, high,
-                          u, y, rows, extra_matrix, G, h, fitted_range_V, input_offset: float, operator: str) -> tuple:
-    """``(state0, A, theta, active, condition, sse)``: the operator state before the first sample
-    (estimated with the weights when ``estimate``, from ``warm`` or many starts; else ``state0``) and
+@dataclass(frozen=True)
+class _RecordArrays:
+    """The whole record as a fit sees it: every sample's operator bounds ``low``, ``high`` (samples ×
+    operators, V of the shifted input), the shifted input ``u`` (V), the displacement ``y`` (µm), the
+    ``rows`` fitted (a slice or sorted indices), the extra regressors' columns ``extra_matrix``
+    (samples × k) and the constraints ``G θ >= h``."""
+    low: np.ndarray
+    high: np.ndarray
+    u: np.ndarray
+    y: np.ndarray
+    rows: object
+    extra_matrix: np.ndarray
+    G: np.ndarray
+    h: np.ndarray
+
+
+def _state_and_parameters(window, columns, record: _RecordArrays, column_transform, state0, demagnetised, warm,
+                          screened) -> tuple:
+    """``(state0, A, theta, active, condition, sse)``: the operator state before the first sample and
     the parameters fitted with it, through ``column_transform`` when given; ``A`` is the whole record's
-    design matrix; ``demagnetised`` is the demagnetised state within the first sample's bounds."""
+    design matrix.  The state is estimated with the weights from ``warm`` (a state estimated before)
+    and ``demagnetised`` (the demagnetised state within the first sample's bounds), or from the
+    ``screened`` starts when there is no ``warm``; with neither it is ``state0``."""
+    estimate = warm is not None or screened is not None
     transient = bool(window.transient_rows.size)
     if estimate and transient and warm is not None and column_transform is not None:
         state0 = warm         # the estimate is refined through the transform below
     elif estimate and transient:
-        if warm is not None:
-            starts = [warm, demagnetised]
-        else:
-            lo, hi = fitted_range_V
-            starts = [demagnetised, low[0].copy(), high[0].copy()] + [
-                np.clip(s, low[0], high[0])
-                for s in short_history_states(np.linspace(lo, hi, 9) - input_offset, columns.r, operator)]
+        starts = [warm, demagnetised] if warm is not None else screened
         state0, theta, active, condition, sse = window.estimated_state(starts, demagnetised,
                                                                        from_settled=warm is None)
     else:
         _, theta, active, condition, sse = window.solve(state0)
     if column_transform is None:
-        A = columns.design(state0, low, high, u, extra_matrix)
+        A = columns.design(state0, record.low, record.high, record.u, record.extra_matrix)
     else:
         state0, A, theta, active, condition, sse = _fit_through_transform(
-            columns, column_transform, low, high, u, y, rows, extra_matrix, G, h,
-            [state0, demagnetised] if estimate else [state0], refine=bool(estimate and transient))
+            columns, column_transform, record, [state0, demagnetised] if estimate else [state0],
+            refine=bool(estimate and transient))
     return state0, A, theta, active, condition, sse
 
 
@@ -1247,12 +1265,13 @@ class _WindowFit:
         return state, theta, active, condition, sse
 
 
-def _fit_through_transform(columns: _Columns, column_transform, low, high, u, y, rows, extra_matrix, G, h,
-                           states, refine: bool) -> tuple:
-    """``(state, A, θ, active constraints, condition number, squared error)`` of the fit whose
-    hysteresis columns pass through ``column_transform``: the best of ``states``, and with
+def _fit_through_transform(columns: _Columns, column_transform, record: _RecordArrays, states, refine: bool) -> tuple:
+    """``(state, A, θ, active constraints, condition number, squared error)`` of the fit of ``record``
+    whose hysteresis columns pass through ``column_transform``: the best of ``states``, and with
     ``refine`` its state refined through the stage for fixed weights, a few rounds."""
     names = columns.names
+    low, high, u, y, rows, extra_matrix, G, h = (record.low, record.high, record.u, record.y, record.rows,
+                                                 record.extra_matrix, record.G, record.h)
 
     def transformed(state):
         A_t = np.column_stack([np.asarray(column_transform(columns.design(state, low, high, u)), dtype=float),
@@ -1379,9 +1398,8 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
     n_hyst = n_lin + len(groups) + 1
 
     n_shared, n_own = len(shared_names), len(own_names)
-    blocks = [_joint_block(index, A, columns, v.size, n_lin, n_hyst, anchor, factor, column_of, column_transform,
-                           shared[index], shared_names, own[index], own_names)
-              for index, ((A, columns), (v, _)) in enumerate(zip(raw, records))]
+    layout = _JointLayout(n_lin, n_hyst, anchor, factor, column_of, column_transform, shared_names, own_names)
+    blocks = [layout.block(index, A, columns, shared[index], own[index]) for index, (A, columns) in enumerate(raw)]
     targets = [y for _, y in records]
     n_params = n_hyst + n_shared + n_own
     names = ((["a1 u³"] if cubic else []) + ["a2 u"] + [f"operator {i + 1} (r = {r[i]:.4g} V)" for i in groups]
@@ -1444,27 +1462,46 @@ def _joint_records(records, initial_states, shared_extras, own_extras, fit_rows)
     return records, shared, own, rows, shared_names, own_names
 
 
-def _joint_block(index: int, A, columns, n_samples: int, n_lin: int, n_hyst: int, anchor, factor, column_of,
-                 column_transform, shared: dict, shared_names, own: dict, own_names) -> np.ndarray:
-    """Record ``index``'s rows of the joint design matrix: its hysteresis columns (operators tied by
-    ``anchor`` and ``factor``, through ``column_transform``), the shared extras, then the own
-    coefficients (zero but for its own sensor offset and extras)."""
-    H = np.zeros((n_samples, n_hyst))
-    H[:, :n_lin] = A[:, :n_lin]
-    for i in range(len(anchor)):
-        if anchor[i] >= 0 and columns[i] >= 0:
-            H[:, column_of[anchor[i]]] += factor[i] * A[:, columns[i]]
-    H[:, n_hyst - 1] = 1.0
-    if column_transform is not None:
-        H = np.asarray(column_transform(H), dtype=float)
-    S = (np.column_stack([np.asarray(shared[key], dtype=float).ravel() for key in shared_names])
-         if shared_names else np.zeros((n_samples, 0)))
-    O = np.zeros((n_samples, len(own_names)))
-    if index > 0:
-        O[:, index - 1] = 1.0            # the record's own sensor offset
-    for key, column in own.items():
-        O[:, own_names.index(key)] = np.asarray(column, dtype=float).ravel()
-    return np.column_stack([H, S, O])
+@dataclass(frozen=True)
+class _JointLayout:
+    """The columns of :func:`identify_jointly`'s design matrix: ``n_lin`` linear ones, the operators'
+    (each operator's output added to the column of its ``anchor``, times its ``factor``;
+    ``column_of`` an anchor's column), the offset (``n_hyst`` hysteresis columns in all, passed
+    through ``column_transform`` when given), the shared extras (``shared_names``), then every
+    record's own coefficients (``own_names``)."""
+    n_lin: int
+    n_hyst: int
+    anchor: np.ndarray
+    factor: np.ndarray
+    column_of: dict
+    column_transform: object
+    shared_names: list
+    own_names: list
+
+    def block(self, index: int, A, columns, shared: dict, own: dict) -> np.ndarray:
+        """Record ``index``'s rows of the joint design matrix, from its regressors ``A`` (their
+        operator ``columns``) and its ``shared`` and ``own`` extras (name -> column): the own
+        coefficients are zero but for its own sensor offset and extras."""
+        n_lin, n_hyst, anchor, factor, column_of = (self.n_lin, self.n_hyst, self.anchor, self.factor,
+                                                    self.column_of)
+        column_transform, shared_names, own_names = self.column_transform, self.shared_names, self.own_names
+        n_samples = A.shape[0]
+        H = np.zeros((n_samples, n_hyst))
+        H[:, :n_lin] = A[:, :n_lin]
+        for i in range(len(anchor)):
+            if anchor[i] >= 0 and columns[i] >= 0:
+                H[:, column_of[anchor[i]]] += factor[i] * A[:, columns[i]]
+        H[:, n_hyst - 1] = 1.0
+        if column_transform is not None:
+            H = np.asarray(column_transform(H), dtype=float)
+        S = (np.column_stack([np.asarray(shared[key], dtype=float).ravel() for key in shared_names])
+             if shared_names else np.zeros((n_samples, 0)))
+        O = np.zeros((n_samples, len(own_names)))
+        if index > 0:
+            O[:, index - 1] = 1.0            # the record's own sensor offset
+        for key, column in own.items():
+            O[:, own_names.index(key)] = np.asarray(column, dtype=float).ravel()
+        return np.column_stack([H, S, O])
 
 
 def start_transient(voltage_V, displacement_um, **settings) -> int:
