@@ -1986,6 +1986,28 @@ def test_without_a_second_record_an_actuator_outside_the_mpi_class_without_an_ef
     assert d.extended.model is d.baseline.model
 
 
+def test_without_a_second_record_the_general_model_sees_the_input_of_a_left_out_start():
+    """Truth (outside-class pair 184): a Preisach actuator without an effect, on band-limited noise,
+    given alone.  Its first 13 samples are left out as a start transient that no rate-independent
+    state explains, and the MPI models leave the rest `unexplained`.  The record starts at the top
+    of its range, where every operator is fixed.  With those samples cut off, the general model's
+    thresholds reached 99.5 V of the 150 V range and missed the large loops: the halves stood at
+    1.18 and 1.33 of their noise, and the record was left `unexplained` (a false alarm).  The
+    left-out start is not scored, but its input still moves the operators: the model alone fits
+    both halves to their noise, and nothing is named."""
+    from pysim.diagnosis.preisach import NOISE_FRACTION
+
+    pair, d = _diagnose_outside_record_alone(184, "preisach", "none")
+    evidence = d.as_json()["evidence"]
+    assert evidence["start_excluded_samples"] > 0
+    assert pair.train.voltage_V[0] == pair.train.voltage_V.max()
+    assert d.cause == "none" and d.causes == (), d.why
+    assert "Without the general model the verdict would be unexplained" in d.why, d.why
+    general = evidence["general_model"]
+    assert general["cause"] == "none" and general["left_sigma2"]["none"] <= NOISE_FRACTION
+    assert d.extended.model is d.baseline.model
+
+
 def test_without_a_second_record_a_named_cause_whose_model_misses_the_record_gives_way_to_the_general_model():
     """Truth (outside-class pair 25): a Bouc-Wen actuator without an effect, on band-limited noise,
     given alone.  The MPI models named creep (a false alarm whose model predicted the third record

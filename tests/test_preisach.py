@@ -8,8 +8,8 @@ import scipy.signal
 from independent_records import preisach_relays
 from pysim.diagnosis.bouc_wen import forgotten_from
 from pysim.diagnosis.candidates import creep_time_constants_s
-from pysim.diagnosis.preisach import (HYSTERESIS_COLUMNS, NOISE_FRACTION, effects_on_both_records,
-                                      effects_on_halves, fit_both_records, fit_on_halves, general_thresholds,
+from pysim.diagnosis.preisach import (HYSTERESIS_COLUMNS, NOISE_FRACTION, GeneralModelParts,
+                                      effects_on_both_records, effects_on_halves, fit_both_records, fit_on_halves, general_thresholds,
                                       preisach_columns, verdict_on_both_records)
 
 RATE_HZ = 2000.0
@@ -125,6 +125,27 @@ def test_one_records_halves_share_its_sensor_and_its_history(inputs):
     half = v.size // 2
     two = fit_both_records(v[:half], stepped[:half], 1 / RATE_HZ, v[half:], stepped[half:], 1 / RATE_HZ)
     assert max(two.mse_sigma2) < 1.0 + NOISE_FRACTION
+
+
+def test_a_left_out_start_moves_the_operators_but_is_not_scored(inputs):
+    """Triangles that start at the top of the range, whose first 200 samples (120 V down to 81 V) a
+    settling sensor spoiled.  Left out of the score with ``scored_from``, their input still sets the
+    operators: the thresholds reach the whole range, as on the unspoiled record, and the first half
+    keeps the rows those samples fix.  Cut off instead, the record's thresholds stop short of the
+    range and its first half loses rows."""
+    v = inputs[0]
+    clean = _noisy(_actuator(v), 21)
+    spoiled = clean.copy()
+    spoiled[:200] += 100 * NOISE_UM
+    whole = GeneralModelParts.halves(v, clean, 1 / RATE_HZ)
+    left_out = GeneralModelParts.halves(v, spoiled, 1 / RATE_HZ, scored_from=200)
+    cut = GeneralModelParts.halves(v[200:], spoiled[200:], 1 / RATE_HZ)
+    assert v[0] == HI and left_out.thresholds_V[-1] == whole.thresholds_V[-1] > cut.thresholds_V[-1] + 10.0
+    first_half, second_half = left_out.usable
+    middle = 200 + (v.size - 200) // 2
+    assert first_half.min() >= 200 and first_half.max() < middle <= second_half.min()
+    assert first_half.size > cut.usable[0].size + 500
+    assert max(left_out.fit().mse_sigma2) < 1.0 + NOISE_FRACTION
 
 
 def test_a_lag_on_one_record_of_several_rates_is_named_on_its_halves(inputs):

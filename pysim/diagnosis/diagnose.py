@@ -646,6 +646,8 @@ class _DiagnosisRun:
                      else settling_samples(self.y - self.whole_fit.prediction_um))
         except IdentificationError as exc:
             raise DiagnosisError(f"{where}{exc}") from exc
+        # the record as it was before the start was left out: its input still moved the actuator
+        self.uncut = (self.v, self.y)
         if start:
             self.v, self.y, time = self.v[start:], self.y[start:], time[start:]
             self.whole_fit = None
@@ -1192,7 +1194,9 @@ class _DiagnosisRun:
     def _halves_parts(self) -> GeneralModelParts:
         """The record's halves prepared for the general model (once)."""
         if self.halves_parts is None:
-            self.halves_parts = GeneralModelParts.halves(self.v, self.y, self.T)
+            # the left-out start is not scored, but its input sets the operators' states (and with them
+            # the thresholds the record fixes early): a start at the top of the range fixes every one
+            self.halves_parts = GeneralModelParts.halves(*self.uncut, self.T, scored_from=self.start)
         return self.halves_parts
 
     def _judge_by_general_model_on_halves(self, parts: GeneralModelParts, reason: str, creep_only_by_effect: bool):

@@ -308,16 +308,19 @@ class GeneralModelParts:
         self._prepare(((v1, y1, period1_s), (v2, y2, period2_s)), KNOWN_SHARE, halves=False)
 
     @classmethod
-    def halves(cls, voltage_V, displacement_um, period_s):
+    def halves(cls, voltage_V, displacement_um, period_s, scored_from: int = 0):
         """One record, scored on its first and second half: one sensor (one offset, no second gain),
         and the operators' and the Bouc-Wen bank's paths run over the whole record, so the second half
-        starts where the first left them (as the actuator did) and only the record's start is unknown."""
+        starts where the first left them (as the actuator did) and only the record's start is unknown.
+        The samples before ``scored_from`` (a start whose displacement is not to be fitted: a sensor
+        settling) are not scored, but their input moves the operators as every other sample's does."""
         both = cls.__new__(cls)
         # the thresholds leave each half KNOWN_SHARE of its samples, the first half too
-        both._prepare(((voltage_V, displacement_um, period_s),), 1.0 - (1.0 - KNOWN_SHARE) / 2.0, halves=True)
+        both._prepare(((voltage_V, displacement_um, period_s),), 1.0 - (1.0 - KNOWN_SHARE) / 2.0, halves=True,
+                      scored_from=int(scored_from))
         return both
 
-    def _prepare(self, records, known_share, halves):
+    def _prepare(self, records, known_share, halves, scored_from=0):
         self.v = tuple(np.asarray(v, dtype=float) for v, _, _ in records)
         self.y = tuple(np.asarray(y, dtype=float) for _, y, _ in records)
         self.T = tuple(float(T) for _, _, T in records)
@@ -328,13 +331,14 @@ class GeneralModelParts:
         self.A = tuple(self._with_bouc_wen(a, v) for (a, _), v in zip(built, self.v))
         # rows where every play operator is fixed by the input and the Bouc-Wen bank has forgotten
         # its state before the record, as far as that leaves known_share of the record
-        usable = [np.arange(max(first, min(forgotten_from(v, self.range_V), int((1.0 - known_share) * v.size))), v.size)
+        usable = [np.arange(max(first, min(forgotten_from(v, self.range_V), int((1.0 - known_share) * v.size)),
+                                scored_from), v.size)
                   for (_, first), v in zip(built, self.v)]
         if halves:
-            half = self.v[0].size // 2
+            half = scored_from + (self.v[0].size - scored_from) // 2
             self.record_of = (0, 0)
             self.usable = (usable[0][usable[0] < half], usable[0][usable[0] >= half])
-            part_samples = (half, self.v[0].size - half)
+            part_samples = (half - scored_from, self.v[0].size - half)
         else:
             self.record_of = (0, 1)
             self.usable = tuple(usable)
