@@ -159,7 +159,8 @@ from pysim.diagnosis.second_record import (RolesStand, best_fitted_on_both_recor
                                            both_records_sentence, delivering_verdict, dynamics_where_they_show,
                                            fit_on_both_records, predicts_second_record_better,
                                            second_record_fitter, structure_on_both,
-                                           told_apart_by_second_record, validate_on_second_record)
+                                           told_apart_by_second_record, validate_on_second_record,
+                                           FirstRecordModels)
 from pysim.diagnosis.shape import correct_for_shape, correct_like_the_others
 from pysim.diagnosis.steps import shown_by_steps
 from pysim.diagnosis.validation import score_on_record
@@ -801,8 +802,8 @@ class _DiagnosisRun:
         baseline, richer = self.baseline, self.richer
         # the second record's own fitter: identified at most once, only when a rule fits that record itself
         second_fitter = functools.cache(lambda: second_record_fitter(fitter, v2, y2))
-        validation, v_verdict = validate_on_second_record(fitter, baseline, richer, candidates, self.v, v2, y2,
-                                                          self.complexity, cv_verdict, self.noise, self._outranks,
+        first = FirstRecordModels(fitter, baseline, richer, candidates, self.v, cv_verdict, self.noise)
+        validation, v_verdict = validate_on_second_record(first, v2, y2, self.complexity, self._outranks,
                                                           second_fitter)
         self.validation = validation
         validation["source"] = self.validate_source

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -40,11 +41,39 @@ from pysim.diagnosis.shape import correct_validation_for_shape
 from pysim.diagnosis.validation import history_modes, score_on_record
 from pysim.identification.identify import IdentificationError, identify
 
-__all__ = ["validate_on_second_record"]
+__all__ = ["FirstRecordModels", "validate_on_second_record"]
 
 
 class RolesStand(Exception):
     """The second record cannot take the first one's role (it cannot identify the hysteresis)."""
+
+
+@dataclass(frozen=True)
+class FirstRecordModels:
+    """What the first record gave, which the second record is asked about.
+
+    Attributes
+    ----------
+    fitter : CandidateFitter
+        The first record's fitter (its sample period, base families and structures).
+    baseline, richer : Evaluation
+        The rate-independent models (n and 2n operators), cross-validated on the first record.
+    candidates : dict
+        Cause -> :class:`~pysim.diagnosis.scoring.Evaluation` of its extension.
+    voltage_V : numpy.ndarray
+        The first record's input (V): the range the hysteresis part was trained on.
+    cv_verdict : dict
+        The verdict by cross-validation on the first record.
+    noise_um : float
+        The first record's noise σ (µm).
+    """
+    fitter: CandidateFitter
+    baseline: Evaluation
+    richer: Evaluation
+    candidates: dict
+    voltage_V: np.ndarray
+    cv_verdict: dict
+    noise_um: float
 
 
 class _SecondRecordScores:
@@ -58,9 +87,11 @@ class _SecondRecordScores:
     asks (:attr:`own_rate_independent_excess`, :meth:`raised`).
     """
 
-    def __init__(self, fitter, baseline, richer, candidates, v1, v2, y2, cv_verdict, noise1, second=None):
+    def __init__(self, first: FirstRecordModels, v2, y2, second=None):
+        fitter, baseline, richer, candidates, v1 = (first.fitter, first.baseline, first.richer, first.candidates,
+                                                    first.voltage_V)
         self.fitter, self.baseline, self.richer, self.candidates = fitter, baseline, richer, candidates
-        self.v2, self.y2, self.cv_verdict, self.second, self.noise1 = v2, y2, cv_verdict, second, noise1
+        self.v2, self.y2, self.cv_verdict, self.second, self.noise1 = v2, y2, first.cv_verdict, second, first.noise_um
         every = [baseline, richer, *candidates.values()]
         train_range = (float(v1.min()), float(v1.max()))
         for ev in every:
@@ -99,9 +130,9 @@ class _SecondRecordScores:
                                                            verdict, standing, confirms, by))
 
 
-def validate_on_second_record(fitter, baseline, richer, candidates, v1, v2, y2, complexity, cv_verdict, noise1,
-                              outranks=None, second=None):
-    """Score every model on the second record; the verdict by that record.
+def validate_on_second_record(first: FirstRecordModels, v2, y2, complexity, outranks=None, second=None):
+    """Score every model of the ``first`` record on the second record (input ``v2`` in V,
+    displacement ``y2`` in µm); the verdict by that record.
 
     A second record on which the better rate-independent model already
     reaches its noise floor (less than ``2 NOISE_FRACTION`` σ² above it) has
@@ -138,7 +169,7 @@ def validate_on_second_record(fitter, baseline, richer, candidates, v1, v2, y2, 
     :func:`_when_second_record_unexplained`); and a second record that shows
     nothing (:func:`_when_second_record_quiet`).
     """
-    s = _SecondRecordScores(fitter, baseline, richer, candidates, v1, v2, y2, cv_verdict, noise1, second)
+    s = _SecondRecordScores(first, v2, y2, second)
     verdict = _named_by_second_record(s, complexity, outranks)
     decided = _when_only_transfer_is_measured(s, verdict)
     if decided is not None:

@@ -291,13 +291,18 @@ def _invertibility_rows(template: HysteresisModel, n_columns: int, cubic: bool,
     return np.array(rows), np.array(rhs)
 
 
-def _constraint_rows(r, operator: str, input_offset_V: float, voltage_range_V, cubic: bool, n_params: int,
-                     operator_columns, operator_factors, margin, nonnegative_columns=()):
-    """Rows G, h with G θ >= h: the model invertible over ``voltage_range_V`` with slope >= ``margin``
-    (none when ``margin`` is None) and the coefficients in ``nonnegative_columns`` >= 0."""
-    template = HysteresisModel(0.0, 1.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
-                               input_offset_V=input_offset_V, voltage_range_V=tuple(voltage_range_V),
-                               name="template")
+def _operator_template(r, operator: str, input_offset_V: float, voltage_range_V) -> HysteresisModel:
+    """A model with the fitted operators' thresholds ``r`` (V), kind, input offset and range and zero
+    weights: what the invertibility constraints are written on."""
+    return HysteresisModel(0.0, 1.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
+                           input_offset_V=input_offset_V, voltage_range_V=tuple(voltage_range_V), name="template")
+
+
+def _constraint_rows(template: HysteresisModel, cubic: bool, n_params: int, operator_columns, operator_factors,
+                     margin, nonnegative_columns=()):
+    """Rows G, h with G θ >= h: the ``template``'s operators (:func:`_operator_template`) weighted
+    into an invertible model over its voltage range with slope >= ``margin`` (none when ``margin`` is
+    None), and the coefficients in ``nonnegative_columns`` >= 0."""
     if margin is not None:
         G, h = _invertibility_rows(template, n_params, cubic, operator_columns, margin, operator_factors)
     else:
@@ -796,7 +801,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     else:
         state0 = demagnetised
     travel, unexcited_message, anchor, factor, static_curve = _excitation_of_rows(
-        v, rows, first, stop, r, low, high, hi - lo, merge_unexcited, require_excitation)
+        v, rows, (first, stop), r, (low, high), hi - lo, merge_unexcited, require_excitation)
     columns = _Columns(r, cubic, anchor, factor, extras)
 
     # Only the window's rows are fitted; the state matters only where an
@@ -815,7 +820,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
                          for i in range(r.size)]
     n_params = n_hyst + len(extras)
     mean_gain = float(np.ptp(y[rows])) / (hi - lo)
-    G, h = _constraint_rows(r, operator, input_offset, (lo, hi), cubic, n_params, effective_columns, factor,
+    G, h = _constraint_rows(_operator_template(r, operator, input_offset, (lo, hi)), cubic, n_params,
+                            effective_columns, factor,
                             min_slope_fraction * mean_gain if min_slope_fraction >= 0 else None,
                             [n_hyst + j for j, key in enumerate(extras) if key in set(extra_nonnegative)])
     extra_matrix = np.column_stack(list(extras.values())) if extras else np.zeros((v.size, 0))
@@ -858,13 +864,15 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         unidentified_reason=unexcited_message or "")
 
 
-def _excitation_of_rows(v, rows, first: int, stop: int, r, low, high, span_V: float, merge: bool,
+def _excitation_of_rows(v, rows, first_stop: tuple, r, bounds: tuple, span_V: float, merge: bool,
                         require_excitation: bool) -> tuple:
     """``(travel, unexcited_message, anchor, factor, static_curve)``: how far each operator travels
-    over the fitted rows, why none is identifiable (None when one is), each operator's anchor and
-    factor (:func:`_why_unidentified`), and whether the whole record identifies no operator (it is
-    then fitted as the curve it shows).  Raises :class:`IdentificationError` when no operator is
-    identifiable and ``require_excitation``."""
+    over the fitted ``rows`` (from sample ``first`` to before ``stop``, ``first_stop``), why none is
+    identifiable (None when one is), each operator's anchor and factor (:func:`_why_unidentified`),
+    and whether the whole record identifies no operator (it is then fitted as the curve it shows).
+    ``bounds`` are the operators' ``(low, high)`` of :func:`operator_bounds`.  Raises
+    :class:`IdentificationError` when no operator is identifiable and ``require_excitation``."""
+    (first, stop), (low, high) = first_stop, bounds
     travel = operator_travel(low, high, rows, v)
     unexcited_message, anchor, factor = _why_unidentified(v, rows, r, travel, span_V, f"{first}..{stop - 1}",
                                                           merge=merge)
@@ -1407,7 +1415,8 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
     effective_columns = [column_of.get(int(anchor[i]), -1) if anchor[i] >= 0 else -1 for i in range(r.size)]
     first_y = targets[0][rows[0]]
     mean_gain = float(np.ptp(first_y)) / (hi - lo) if hi > lo else 0.0
-    G, h = _constraint_rows(r, operator, input_offset_V, (lo, hi), cubic, n_params, effective_columns, factor,
+    G, h = _constraint_rows(_operator_template(r, operator, input_offset_V, (lo, hi)), cubic, n_params,
+                            effective_columns, factor,
                             min_slope_fraction * mean_gain if min_slope_fraction >= 0 else None,
                             [n_hyst + j for j, key in enumerate(shared_names) if key in set(extra_nonnegative)])
     A_all = np.vstack([block[k] for block, k in zip(blocks, rows)])
