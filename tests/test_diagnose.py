@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.signal
 
 from pysim.core.extended import ExtendedModel
 from pysim.core.spec import load_spec
@@ -27,6 +28,8 @@ from pysim.diagnosis.residuals import (
     cross_correlation,
     dominant_frequency,
     input_changes,
+    level_noise_sigma,
+    models_noise_sigma,
     noise_sigma,
     time_since_change,
 )
@@ -188,6 +191,67 @@ def test_noise_sigma_ignores_a_smooth_error(rng):
     residual = 3.0 * np.sin(2 * np.pi * 0.5 * t) + rng.normal(scale=0.2, size=t.size)
     assert noise_sigma(residual) == pytest.approx(0.2, rel=0.05)
     assert noise_sigma(np.round(np.zeros(100), 3), quantum_um=0.012) == pytest.approx(0.012 / np.sqrt(12))
+
+
+def _ar1(rng, phi, n, sigma=1.0):
+    """AR(1) noise of coefficient ``phi`` and standard deviation ``sigma``, stationary from its first sample."""
+    e = rng.normal(scale=sigma * np.sqrt(1.0 - phi**2), size=n)
+    out = np.empty(n)
+    out[0] = rng.normal(scale=sigma)
+    for k in range(1, n):
+        out[k] = phi * out[k - 1] + e[k]
+    return out
+
+
+@pytest.mark.parametrize("phi", [0.3, 0.5, 0.7, 0.8])
+def test_level_noise_sigma_finds_the_variance_of_correlated_noise(rng, phi):
+    # the first differences show only sqrt(1 - φ) of the σ of AR(1) noise; the level its differences
+    # reach at long lags is the whole σ
+    noise = _ar1(rng, phi, 20000, sigma=0.3)
+    assert noise_sigma(noise) == pytest.approx(0.3 * np.sqrt(1.0 - phi), rel=0.08)
+    assert level_noise_sigma(noise) == pytest.approx(0.3, rel=0.08)
+
+
+@pytest.mark.parametrize("period", [20, 40, 100, 1000])
+@pytest.mark.parametrize("amplitude", [0.1, 0.5, 2.0, 10.0])
+def test_level_noise_sigma_keeps_the_white_noise_under_a_periodic_misfit(rng, period, amplitude):
+    # white noise under a periodic misfit of any size and speed: the differences' rise is not AR(1)'s,
+    # so the first differences' σ stands, to the bit
+    t = np.arange(20000)
+    residual = rng.normal(scale=0.2, size=t.size) + amplitude * 0.2 * np.sin(2 * np.pi * t / period) ** 3
+    assert level_noise_sigma(residual) == noise_sigma(residual)
+
+
+def test_the_noise_of_several_models_is_the_least_so_a_misfit_like_coloured_noise_does_not_raise_it(rng):
+    # a misfit that follows a band-limited input's rate is itself coloured and may pass for AR(1)
+    # noise in the residual of a model that misses it; the model that explains it leaves the white
+    # noise alone, and of several models the least estimate is the record's noise
+    n = 20000
+    b, a = scipy.signal.butter(2, 0.3)
+    rate = np.gradient(scipy.signal.lfilter(b, a, rng.normal(size=n)))
+    noise = rng.normal(scale=1.0, size=n)
+    y = np.cumsum(rate) + noise
+    missing = noise + rate / np.std(rate)
+    sigma, noise_free = models_noise_sigma([missing, noise], y)
+    assert not noise_free
+    assert sigma == pytest.approx(1.0, rel=0.05)
+    assert sigma == min(level_noise_sigma(missing), level_noise_sigma(noise))
+
+
+def test_correlated_noise_is_found_though_one_model_leaves_a_misfit_over_it(rng):
+    # AR(1) noise is in every model's residual; a model that misses a slow effect leaves a residual
+    # whose differences keep rising, which is no noise level: the model that explains it shows the level
+    n = 20000
+    noise = _ar1(rng, 0.7, n, sigma=0.5)
+    slow = 3.0 * np.sin(2 * np.pi * np.arange(n) / 700.0)
+    y = np.cumsum(rng.normal(size=n)) + noise
+    assert level_noise_sigma(noise + slow) == noise_sigma(noise + slow)     # a misfit, not a level
+    sigma, _ = models_noise_sigma([noise + slow, noise], y)
+    assert sigma == pytest.approx(0.5, rel=0.08)
+    # one residual with white noise decides that the record's noise is white
+    white = rng.normal(scale=0.5, size=n)
+    sigma, _ = models_noise_sigma([white + 0.3 * noise, white], y)
+    assert sigma == noise_sigma(white)
 
 
 def test_input_changes_finds_reversals_and_steps():

@@ -1475,6 +1475,25 @@ def test_coloured_noise_without_an_effect_names_nothing(plant, seed):
     assert d.cause == "none", d.why
 
 
+def test_noise_correlated_over_samples_is_weighed_at_its_whole_variance_and_names_nothing(plant):
+    """All of the sensor noise correlated from sample to sample (AR(1), φ = 0.8, as a sensor's own
+    low-pass filter gives): the first differences show only sqrt(1 - φ) of its σ, and the plain fit
+    was left 'unexplained' at four noise variances.  The noise is now measured where its differences
+    level off, at its whole σ, and nothing is named."""
+    v = multisine(plant, 10000, 1)
+    y = plant.simulate(v)
+    rng = np.random.default_rng(1)
+    e = rng.normal(0.0, 1.0, y.size)
+    coloured = np.empty_like(e)
+    coloured[0] = e[0]
+    for k in range(1, e.size):
+        coloured[k] = 0.8 * coloured[k - 1] + math.sqrt(1 - 0.64) * e[k]
+    sigma = 0.003 * float(np.ptp(y))
+    d = diagnose(v, y + sigma * coloured, FS)
+    assert d.cause == "none" and d.causes == (), d.why
+    assert d.noise_um == pytest.approx(sigma * np.std(coloured), rel=0.1)
+
+
 def test_removal_holds_when_it_is_spread_over_the_record_not_when_one_stretch_carries_it():
     rng = np.random.default_rng(3)
     n = 20000

@@ -46,6 +46,106 @@ def _difference_sigma(residual_um, order: int) -> float:
     return _MAD_TO_SIGMA * mad / np.sqrt({1: 2.0, 3: 20.0}[order])
 
 
+#: Differences two samples apart that spread this much more (in variance) than differences one sample
+#: apart may show noise correlated from sample to sample (an AR(1) coefficient φ of 0.25 or more, as
+#: a sensor's own low-pass filter gives), whose variance the first differences underestimate by
+#: 1 - φ; white noise spreads the same at every lag (to within a few per cent on a thousand samples).
+CORRELATED_NOISE_RISE = 1.25
+
+#: How far each doubling of the lag may rise from what AR(1) noise of the fitted φ gives: from lag
+#: ``k`` to ``2k`` the differences' variance rises by ``1 + φ^k``; every measured rise must lie within
+#: this (absolute) of it (the spread of the estimates on a few thousand samples is about 0.05-0.1).
+#: A misfit's differences rise otherwise (a smooth one's by nearly 4 at every doubling).
+AR1_RISE_TOLERANCE = 0.15
+
+#: Lags ``k`` with ``φ^k`` below this have reached the level ``2 σ²``.
+AR1_LEVELLED = 0.05
+
+#: The longest lag (samples) searched for the level of correlated noise, and at most this fraction
+#: of the residual's length; φ above 0.95 (a correlation time over 20 samples) is not taken for
+#: noise.
+MAX_NOISE_LAG = 128
+MAX_NOISE_LAG_FRACTION = 0.05
+MAX_NOISE_CORRELATION = 0.95
+
+
+def _lag_sigma(residual, lag: int) -> float:
+    """σ of noise from the median absolute deviation of differences ``lag`` samples apart (the
+    full variance of stationary noise once ``lag`` outlasts its correlation)."""
+    d = residual[lag:] - residual[:-lag]
+    return _MAD_TO_SIGMA * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0)
+
+
+def level_noise_sigma(residual_um, first_difference_sigma: float | None = None) -> float:
+    """Standard deviation (µm) of a residual's noise, white or AR(1)-correlated.
+
+    White noise gives the first differences' σ (:func:`noise_sigma`), which is
+    returned unchanged.  Noise correlated from sample to sample (a sensor's
+    low-pass filter; an AR(1) coefficient φ) shows only ``sqrt(1 - φ)`` of its
+    σ in the first differences, so every model would leave it as a misfit of
+    several noise variances.  Its differences ``k`` samples apart have the
+    variance ``2 σ² (1 - φ^k)``: from lag ``k`` to ``2k`` it rises by
+    ``1 + φ^k``, less at every doubling, to the level ``2 σ²``.  When the
+    second lag rises by :data:`CORRELATED_NOISE_RISE` or more (φ ≥ 0.25) and
+    every doubling follows ``1 + φ^k`` of one φ within
+    :data:`AR1_RISE_TOLERANCE` up to the first that has levelled off
+    (``φ^k`` below :data:`AR1_LEVELLED`), that level is the noise's σ; a slow
+    misfit's rise at longer lags does not count.
+    A misfit's differences rise otherwise (a smooth one's by nearly 4 at every
+    doubling): the first differences' σ is kept.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> white = rng.normal(0.0, 0.05, 20000)
+    >>> bool(level_noise_sigma(white) == noise_sigma(white))
+    True
+    >>> ar = np.zeros(20000)
+    >>> for k in range(1, ar.size):
+    ...     ar[k] = 0.8 * ar[k - 1] + 0.6 * white[k]
+    >>> round(float(np.std(ar)), 3), round(float(noise_sigma(ar)), 3), round(level_noise_sigma(ar), 3)
+    (0.049, 0.022, 0.049)
+    >>> t = np.arange(20000)
+    >>> smooth_misfit = white + 0.2 * np.sin(2 * np.pi * t / 40)
+    >>> bool(level_noise_sigma(smooth_misfit) == noise_sigma(smooth_misfit))
+    True
+    """
+    return _noise_level(residual_um, first_difference_sigma)[1]
+
+
+def _noise_level(residual_um, first_difference_sigma: float | None = None) -> tuple:
+    """``(kind, σ µm)`` of :func:`level_noise_sigma`: ``kind`` is ``"white"`` (the second lag does
+    not rise: the first differences' σ), ``"correlated"`` (AR(1) noise: its level) or ``"misfit"``
+    (the differences rise, but not as AR(1) noise's: the first differences' σ)."""
+    r = np.asarray(residual_um, dtype=float)
+    first = _difference_sigma(r, 1) if first_difference_sigma is None else first_difference_sigma
+    longest = min(MAX_NOISE_LAG, int(MAX_NOISE_LAG_FRACTION * r.size))
+    if first <= 0.0 or longest < 4:
+        return "white", first
+    lags = 2 ** np.arange(int(np.log2(longest)) + 1)                     # 1, 2, 4, ...
+    variance = np.array([first**2] + [_lag_sigma(r, int(k)) ** 2 for k in lags[1:]])
+    rise = variance[1:] / np.maximum(variance[:-1], 1e-300) - 1.0         # lag k -> 2k: φ^k for AR(1)
+    if rise[0] < CORRELATED_NOISE_RISE - 1.0:
+        return "white", first
+    if rise[0] > MAX_NOISE_CORRELATION:
+        return "misfit", first
+    grid = np.linspace(CORRELATED_NOISE_RISE - 1.0 - AR1_RISE_TOLERANCE, MAX_NOISE_CORRELATION, 200)
+    # the doublings up to the first that has levelled off: beyond the noise's correlation a slow
+    # misfit may rise again (the model class's, or an effect's), which says nothing of the noise
+    for n_rises in range(2, rise.size + 1):
+        # the φ that fits these doublings' rises best, on a grid fine against the estimates' spread
+        predicted = grid[:, None] ** lags[None, :n_rises]
+        best = int(np.argmin(np.sum((rise[None, :n_rises] - predicted) ** 2, axis=1)))
+        phi = grid[best]
+        if np.max(np.abs(rise[:n_rises] - predicted[best])) > AR1_RISE_TOLERANCE:
+            return "misfit", first
+        if phi ** lags[n_rises - 1] < AR1_LEVELLED:
+            levelled = phi ** lags[:n_rises + 1] < AR1_LEVELLED
+            return "correlated", float(np.sqrt(np.median(variance[:n_rises + 1][levelled]
+                                                         / (1.0 - phi ** lags[:n_rises + 1][levelled]))))
+    return "misfit", first                  # not levelled off within the record
+
+
 #: Below this fraction of its range a record's noise is not a sensor's (24-bit converters resolve
 #: 6e-8 of theirs): the record is a simulation or was smoothed, and has no measurable noise.
 NOISE_FREE_FRACTION = 1e-7
@@ -84,7 +184,9 @@ def models_noise_sigma(residuals_um, displacement_um) -> tuple:
     """``(σ µm, noise_free)`` against which several models' residuals of one record are weighed: the
     smallest of their :func:`record_noise_sigma` estimates, or the floor for all of them when any
     residual shows no measurable noise (no model fits white noise away, so one such residual means
-    the record has none, whatever the others' misfits look like).
+    the record has none, whatever the others' misfits look like).  The noise is white when any
+    residual's differences do not rise with the lag; otherwise, when one rises as AR(1) noise does
+    (:func:`level_noise_sigma`), it is the least level of those.
 
     Examples
     --------
@@ -97,7 +199,15 @@ def models_noise_sigma(residuals_um, displacement_um) -> tuple:
     first = [_difference_sigma(r, 1) for r in residuals_um]       # each residual's, computed once
     if any(scale.noise_free(r, sigma) for r, sigma in zip(residuals_um, first)):
         return VALIDATED_NOISE_FRACTION * scale.span, True
-    return float(min(max(sigma, scale.step / np.sqrt(12.0)) for sigma in first)), False
+    levels = [_noise_level(r, sigma) for r, sigma in zip(residuals_um, first)]
+    # the noise is in every residual and no model fits it away: one residual whose differences do not
+    # rise shows white noise (the others' rise is misfit); where none is white, a residual that rises as
+    # AR(1) noise does shows correlated noise, at the least of such levels (a misfit that happens to
+    # rise that way in one model's residual raises only that one's)
+    correlated = [sigma for kind, sigma in levels if kind == "correlated"]
+    white = any(kind == "white" for kind, _ in levels)
+    chosen = correlated if correlated and not white else first
+    return float(min(max(sigma, scale.step / np.sqrt(12.0)) for sigma in chosen)), False
 
 
 def is_noise_free(residual_um, displacement_um) -> bool:
