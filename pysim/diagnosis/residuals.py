@@ -92,7 +92,8 @@ def level_noise_sigma(residual_um, first_difference_sigma: float | None = None) 
     (``φ^k`` below :data:`AR1_LEVELLED`), that level is the noise's σ; a slow
     misfit's rise at longer lags does not count.
     A misfit's differences rise otherwise (a smooth one's by nearly 4 at every
-    doubling): the first differences' σ is kept.
+    doubling): the first differences' σ is kept.  Of several models of one
+    record, :func:`models_noise_sigma` decides which estimate holds.
 
     Examples
     --------
@@ -158,7 +159,8 @@ VALIDATED_NOISE_FRACTION = 1e-3
 
 def record_noise_sigma(residual_um, displacement_um) -> float:
     """Standard deviation (µm) of the noise against which a residual of the record
-    ``displacement_um`` is weighed: :func:`noise_sigma` at the record's resolution
+    ``displacement_um`` is weighed: :func:`level_noise_sigma` (white noise, or noise correlated
+    from sample to sample at its whole variance), at least the record's resolution
     (:func:`quantum`).
 
     A record without measurable noise (:func:`is_noise_free`, as a simulation
