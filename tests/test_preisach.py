@@ -9,8 +9,8 @@ from independent_records import preisach_relays
 from pysim.diagnosis.bouc_wen import forgotten_from
 from pysim.diagnosis.candidates import creep_time_constants_s
 from pysim.diagnosis.preisach import (HYSTERESIS_COLUMNS, NOISE_FRACTION, GeneralModelParts,
-                                      effects_on_both_records, effects_on_halves, fit_both_records, fit_on_halves, general_thresholds,
-                                      preisach_columns, verdict_on_both_records)
+                                      effects_on_both_records, effects_on_halves, fit_both_records, fit_on_halves,
+                                      general_thresholds, preisach_columns, verdict_on_both_records)
 
 RATE_HZ = 2000.0
 FINE = 8

@@ -42,8 +42,14 @@ def _difference_sigma(residual_um, order: int) -> float:
     d = np.diff(np.asarray(residual_um, dtype=float), n=order)
     if d.size == 0:
         return 0.0
-    mad = float(np.median(np.abs(d - np.median(d))))
-    return _MAD_TO_SIGMA * mad / np.sqrt({1: 2.0, 3: 20.0}[order])
+    return _mad_sigma(d, {1: 2.0, 3: 20.0}[order])
+
+
+def _mad_sigma(differences, variance_factor: float) -> float:
+    """σ of white noise whose ``differences`` have the variance ``variance_factor`` σ², from their
+    median absolute deviation (robust to the few large differences at steps)."""
+    mad = float(np.median(np.abs(differences - np.median(differences))))
+    return _MAD_TO_SIGMA * mad / np.sqrt(variance_factor)
 
 
 #: Differences two samples apart that spread this much more (in variance) than differences one sample
@@ -72,8 +78,7 @@ MAX_NOISE_CORRELATION = 0.95
 def _lag_sigma(residual, lag: int) -> float:
     """σ of noise from the median absolute deviation of differences ``lag`` samples apart (the
     full variance of stationary noise once ``lag`` outlasts its correlation)."""
-    d = residual[lag:] - residual[:-lag]
-    return _MAD_TO_SIGMA * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0)
+    return _mad_sigma(residual[lag:] - residual[:-lag], 2.0)
 
 
 def level_noise_sigma(residual_um, first_difference_sigma: float | None = None) -> float:
@@ -123,13 +128,15 @@ def _noise_level(residual_um, first_difference_sigma: float | None = None) -> tu
     longest = min(MAX_NOISE_LAG, int(MAX_NOISE_LAG_FRACTION * r.size))
     if first <= 0.0 or longest < 4:
         return "white", first
+    # the second lag decides for most residuals (white noise): the longer lags only where it rises
+    second = _lag_sigma(r, 2) ** 2 / max(first**2, 1e-300) - 1.0
+    if second < CORRELATED_NOISE_RISE - 1.0:
+        return "white", first
+    if second > MAX_NOISE_CORRELATION:
+        return "misfit", first
     lags = 2 ** np.arange(int(np.log2(longest)) + 1)                     # 1, 2, 4, ...
     variance = np.array([first**2] + [_lag_sigma(r, int(k)) ** 2 for k in lags[1:]])
     rise = variance[1:] / np.maximum(variance[:-1], 1e-300) - 1.0         # lag k -> 2k: φ^k for AR(1)
-    if rise[0] < CORRELATED_NOISE_RISE - 1.0:
-        return "white", first
-    if rise[0] > MAX_NOISE_CORRELATION:
-        return "misfit", first
     grid = np.linspace(CORRELATED_NOISE_RISE - 1.0 - AR1_RISE_TOLERANCE, MAX_NOISE_CORRELATION, 200)
     # the doublings up to the first that has levelled off: beyond the noise's correlation a slow
     # misfit may rise again (the model class's, or an effect's), which says nothing of the noise
@@ -141,9 +148,9 @@ def _noise_level(residual_um, first_difference_sigma: float | None = None) -> tu
         if np.max(np.abs(rise[:n_rises] - predicted[best])) > AR1_RISE_TOLERANCE:
             return "misfit", first
         if phi ** lags[n_rises - 1] < AR1_LEVELLED:
-            levelled = phi ** lags[:n_rises + 1] < AR1_LEVELLED
-            return "correlated", float(np.sqrt(np.median(variance[:n_rises + 1][levelled]
-                                                         / (1.0 - phi ** lags[:n_rises + 1][levelled]))))
+            decay = phi ** lags[:n_rises + 1]                             # φ^k at every lag so far
+            levelled = decay < AR1_LEVELLED
+            return "correlated", float(np.sqrt(np.median(variance[:n_rises + 1][levelled] / (1.0 - decay[levelled]))))
     return "misfit", first                  # not levelled off within the record
 
 
