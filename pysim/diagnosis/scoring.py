@@ -251,8 +251,9 @@ def candidates_on_either_base(fitter: CandidateFitter, run, baseline, richer, ca
     samples, and no worse on the record's part of other character (its
     fastest blocks, fitted on its slowest): held-out blocks of one record
     share its character, and operators that its input moves in one way only
-    can win them without carrying the hysteresis to a new input.  Only the stages whose parameters all shape the response (a
-    delay, a lag or resonance, an input low-pass, a slew rate) get the second
+    can win them without carrying the hysteresis to a new input.  Only the
+    stages whose parameters all shape the response (a delay, a lag or
+    resonance, an input low-pass, a slew rate) get the second
     operator set: creep's modes and drift's trend are linear columns fitted
     with the operator weights, and a second set of weights to trade with
     lets fast creep modes pass for a lag (a 4.6 ms lag on a record that
@@ -279,7 +280,6 @@ def candidates_on_either_base(fitter: CandidateFitter, run, baseline, richer, ca
         # badly (independent seed 153: steps from an unknown history, a 1.7 ms lag on 20 operators
         # leaves 1.01 σ² in the median block against 1.04 on 10, but 1.38 times the mean-square error
         # on the faster part, and predicts a decaying triangle 3.0 times worse than on 10 operators)
-        keep = better and _no_worse_on_other_character(ev, candidates[cause])
-        if keep:
+        if better and _no_worse_on_other_character(ev, candidates[cause]):
             candidates[cause] = ev
     return candidates
