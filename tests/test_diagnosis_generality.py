@@ -811,9 +811,12 @@ def test_the_model_delivered_for_a_set_is_the_member_that_predicts_the_second_re
     history and validated on a decaying triangle (153) and a chirp (201).  The records cannot tell
     the dynamics from their look-alikes, so a set is named, but the members' models carry the
     first record's hysteresis part to a new input very differently.  The delivered model is the
-    member that predicts the second record best; the set is unchanged, and the delivered model
+    member that predicts the second record best, or the one whose structure, refitted on both
+    records, predicts the held-out blocks of each better still (153, since its lag stays on 10
+    operators: rate-dependent hysteresis, 1.11 and 1.81 σ² against creep's 1.19 and 2.65, creep
+    having predicted the second record best); the set is unchanged, and the delivered model
     predicts the third record (a multisine, band-limited noise; never given) better than the
-    plain fit, which the set's first member did not on 153 (1.04x the plain fit's RMS).
+    plain fit, which the set's first member once did not on 153 (1.04x the plain fit's RMS).
 
     Which member the tie puts first can differ from one machine to another (on 201, creep and the
     resonance leave 1.37 and 1.46 σ² on the second record): when the first member already predicts
@@ -830,9 +833,17 @@ def test_the_model_delivered_for_a_set_is_the_member_that_predicts_the_second_re
         assert d.cause in d.validation["delivered_sigma2"] and "is the model delivered" in d.why
     elif seed == 153:
         pytest.fail(f"the set's first member was not moved: {d.why}")
-    noise2 = d.validation["noise_um"]
-    on_second = {c: d.candidates[c].validation["mse_um2"] / noise2**2 for c in d.causes}
-    assert on_second[d.cause] == min(on_second.values()), on_second
+    if d.validation.get("delivered_by") == "both records":
+        # the member the second record chose gave way to one whose structure, refitted on both
+        # records, predicts the held-out blocks of each record better
+        both = d.validation["delivered_both_sigma2"]
+        others = [errors for cause, errors in both.items() if cause != d.cause]
+        assert others and all(both[d.cause][i] < min(e[i] for e in others) for i in (0, 1)), both
+        assert "refitted on both records" in d.why, d.why
+    else:
+        noise2 = d.validation["noise_um"]
+        on_second = {c: d.candidates[c].validation["mse_um2"] / noise2**2 for c in d.causes}
+        assert on_second[d.cause] == min(on_second.values()), on_second
     rms = {label: _third_record_rms(pair, ev.model) for label, ev in (("plain", d.baseline), ("delivered", d.extended))}
     assert rms["delivered"] < 0.7 * rms["plain"], rms
 
@@ -2185,25 +2196,33 @@ def test_without_a_second_record_a_creep_the_general_model_gives_no_weight_gives
     assert _third_record_rms(pair, d.extended.model) < _third_record_rms(pair, d.candidates["creep"].model)
 
 
-def test_without_a_second_record_a_slew_limit_whose_model_misses_the_record_is_put_to_the_general_model():
+def test_without_a_second_record_an_effect_whose_model_misses_the_record_is_put_to_the_general_model():
     """Truth (outside-class pair 10): a Preisach actuator with creep, on triangles, given alone.  The
-    MPI models named a slew limit (tied with an input low-pass), whose own model leaves the record
-    over a hundred σ² above its noise.  On one record's halves the general model judges a slew limit
-    too (it holds one before its hysteresis): creep brings each half to its noise, the slew limit
-    takes nothing, and creep is named.  Its model predicts a third input far better than the slew
-    limit's."""
+    MPI models name an effect other than creep (a slew limit tied with an input low-pass, or
+    rate-dependent hysteresis, depending on which operator set the fast stages are fitted on),
+    whose own model leaves the record over a hundred σ² above its noise.  On one record's halves
+    the general model judges that effect too (where it can hold it): creep brings each half to its
+    noise, a slew limit takes nothing, and creep is named.  Its model predicts a third input better
+    than the effect first named (0.62x rate-dependent hysteresis's RMS, 0.25x the slew limit's; about
+    even with the plain fit, 1.02x: there the Preisach loop shape, which no MPI model holds, dominates)."""
     from pysim.diagnosis.preisach import NOISE_FRACTION
     from pysim.diagnosis.rules import UNEXPLAINED_LEVEL
 
     pair, d = _diagnose_outside_record_alone(10, "preisach", "creep")
-    assert d.cause == "creep" and "slew_limit" not in d.causes, d.why
-    left = re.search(r"slew_limit's model leaves the record ([0-9.]+) σ² above its noise", d.why)
-    assert left and float(left.group(1)) >= UNEXPLAINED_LEVEL, d.why
+    named = re.search(r"(\w+) was named, but \1's model leaves the record ([0-9.]+) σ² above its noise", d.why)
+    assert named, d.why
+    first_named = named.group(1)
+    assert first_named != "creep" and float(named.group(2)) >= UNEXPLAINED_LEVEL, d.why
+    assert d.cause == "creep" and first_named not in d.causes and "slew_limit" not in d.causes, d.why
     general = d.as_json()["evidence"]["general_model"]
     assert general["cause"] == "creep" and general["left_sigma2"]["creep"] <= NOISE_FRACTION
     assert general["left_sigma2"]["slew_limit"] >= 0.9 * general["left_sigma2"]["none"]
+    # the general model holds no rate-dependent hysteresis (its entry is then empty); what it holds
+    # of the effect first named takes nothing
+    left_by_first = general["left_sigma2"].get(first_named)
+    assert left_by_first is None or left_by_first >= 0.9 * general["left_sigma2"]["none"], general
     assert d.extended.cause == "creep"
-    assert _third_record_rms(pair, d.extended.model) < 0.5 * _third_record_rms(pair, d.candidates["slew_limit"].model)
+    assert _third_record_rms(pair, d.extended.model) < 0.7 * _third_record_rms(pair, d.candidates[first_named].model)
 
 
 def test_without_a_second_record_a_creep_model_that_misses_the_record_takes_the_general_models_modes():
