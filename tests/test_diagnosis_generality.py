@@ -888,14 +888,10 @@ def test_a_second_operator_set_that_predicts_the_faster_part_worse_is_not_taken(
     d = diagnose(train.voltage_V, train.displacement_um, train.sample_rate_hz)
     assert "rate_dependence" in d.causes, d.why
 
-    def rms(record, model):
-        error = (model.simulate(record.voltage_V) - record.clean_um)[record.settle_samples:]
-        return float(np.sqrt(np.mean(error**2)))
-
-    plain = {name: rms(getattr(pair, name), d.baseline.model) for name in ("validation", "test")}
-    lag = rms(pair.validation, d.candidates["rate_dependence"].model)
+    plain = {name: _record_rms(getattr(pair, name), d.baseline.model) for name in ("validation", "test")}
+    lag = _record_rms(pair.validation, d.candidates["rate_dependence"].model)
     assert lag < plain["validation"], (lag, plain)
-    delivered = {name: rms(getattr(pair, name), d.extended.model) for name in ("validation", "test")}
+    delivered = {name: _record_rms(getattr(pair, name), d.extended.model) for name in ("validation", "test")}
     assert all(delivered[name] < plain[name] for name in plain), (delivered, plain)
 
 
@@ -1807,13 +1803,17 @@ def _diagnose_outside_pair(seed: int, plant: str, effect: str):
                           validate=(pair.validation.voltage_V, pair.validation.displacement_um, fs))
 
 
-def _third_record_rms(pair, model) -> float:
-    """RMS error (µm) of a model's prediction of the pair's third record (never given to the
-    diagnosis) against its noise-free displacement, after the record's settling window (the
-    whole record when it has none, as the outside-class records)."""
-    test = pair.test
-    error = (model.simulate(test.voltage_V) - test.clean_um)[getattr(test, "settle_samples", 0):]
+def _record_rms(record, model) -> float:
+    """RMS error (µm) of a model's prediction of a generated record against its noise-free
+    displacement, after the record's settling window (the whole record when it has none, as the
+    outside-class records)."""
+    error = (model.simulate(record.voltage_V) - record.clean_um)[getattr(record, "settle_samples", 0):]
     return float(np.sqrt(np.mean(error**2)))
+
+
+def _third_record_rms(pair, model) -> float:
+    """:func:`_record_rms` on the pair's third record (never given to the diagnosis)."""
+    return _record_rms(pair.test, model)
 
 
 def test_the_model_delivered_is_refitted_on_both_records():
