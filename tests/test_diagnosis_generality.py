@@ -123,55 +123,6 @@ def test_creep_left_by_the_history_before_the_second_record_is_scored_as_its_tra
     assert mse() > 5.0 * sigma2
 
 
-def test_creep_left_by_a_history_before_the_first_record_starts_its_modes_where_the_history_left_them(
-        plant, monkeypatch):
-    """Truth: a plant that creeps (0.01 s and 0.3 s modes, 0.004 and 0.01 µm/V) held at the top of
-    its range for 4 s before the record, a multisine that starts a third of the way up: the 0.3 s
-    mode starts about 90 V above the first sample.  The creep fit starts its slow modes inside the
-    record's range, comes nearer the slow weight (the modes tried are not the truth's: the sum over
-    those of 0.1 s and slower) and follows the noise-free record more closely than with its modes
-    at rest (switched off).  Only modes that creep when started at rest get a start (measured: the
-    slow weight 0.0059 µm/V against 0.0007 at rest, 0.0101 when every slow mode may start; RMS 0.62
-    noise σ against 0.86).  Its prediction in columns (Python) and the fitted model run from the
-    state it reports (the C stages) are two implementations of the same start."""
-    from pysim.core.extended import ExtendedModel, StageSpec
-    from pysim.diagnosis import candidates
-
-    creeping = ExtendedModel(plant, StageSpec(sample_period_s=T, creep_time_constants_s=(0.01, 0.3),
-                                              creep_weights_um_per_V=(0.004, 0.01)))
-    v = multisine(plant, 8000, 31)
-    truth = creeping.simulate(np.concatenate((np.full(8000, plant.voltage_range_V[1]), v)))[8000:]
-    y = noisy(truth, 32)
-    sigma = 0.002 * np.ptp(y)
-
-    def creep_fit():
-        fitter = CandidateFitter(v, y, T)
-        family = fitter.creep(fitter.base("baseline"))
-        return fitter.finish(family, fitter.fit(family))
-
-    def rms_sigma(fit):
-        return float(np.sqrt(np.mean((fit.prediction_um - truth)[40:] ** 2))) / sigma
-
-    def slow_weight(fit):
-        return sum(w for w, tau in zip(fit.parameters["weights_um_per_V"], fit.parameters["time_constants_s"])
-                   if tau >= 0.1)
-
-    started = creep_fit()
-    below, above = started.parameters["start_range_V"]
-    assert below == pytest.approx(v.min() - v[0]) and above == pytest.approx(v.max() - v[0])
-    assert all(below - 1e-9 <= s <= above + 1e-9 for s in started.parameters["start_offsets_V"])
-    assert min(started.parameters["weights_um_per_V"]) >= 0.0
-    np.testing.assert_allclose(started.model.simulate(v, started.state), started.result.prediction_um, atol=1e-9)
-    assert any(started.parameters["start_offsets_V"])
-    assert rms_sigma(started) < 0.7
-
-    monkeypatch.setattr(candidates, "MIN_START_MODE_SAMPLES", np.inf)
-    at_rest = creep_fit()
-    assert not any(at_rest.parameters["start_offsets_V"])
-    assert abs(slow_weight(started) - 0.01) < 0.6 * abs(slow_weight(at_rest) - 0.01)
-    assert rms_sigma(started) < 0.8 * rms_sigma(at_rest)
-
-
 def test_the_operator_state_after_an_unknown_history_is_found_through_the_creep(plant, monkeypatch):
     """Truth: a plant whose displacement creeps (0.05 s and 0.3 s modes).  Before the second record
     the input rose to 93 % of the range and fell to 41 %, levels off any grid; the record holds

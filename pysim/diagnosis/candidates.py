@@ -34,11 +34,7 @@ Every family is physically admissible by construction:
       ninth of the record, two per decade, and **non-negative** weights (in
       the direction of the actuator's gain): a monotone, log-like step
       response, never cancelling modes.  The hysteresis part is refitted with
-      them, so the static gain stays the measured one.  A mode of
-      ``MIN_START_MODE_SAMPLES`` up to ``MAX_START_MODE_SHARE`` of the record
-      that creeps when started at rest may also start where a history before
-      the record left it, anywhere in the record's range
-      (:meth:`CandidateFitter.creep`);
+      them, so the static gain stays the measured one;
     - driven by the displacement, ``y = G[h]`` with
       ``G = 1 − Σ s_j + Σ s_j C_j`` (shares ``s_j >= 0``, ``Σ s_j <= 0.5``, the
       same time constants): the displacement reached creeps on by a share of
@@ -101,12 +97,6 @@ MAX_RINGING_SHARE = 0.05
 #: Largest share of a settled displacement that displacement creep may reach by creeping: creep
 #: follows the jump of a step, it is not most of it (a response that mostly arrives late is a lag).
 MAX_CREEP_SHARE = 0.5
-#: Creep modes at least this slow (samples) may start away from rest: a history before the record
-#: left them there.  A faster mode's history is gone within the settling samples.
-MIN_START_MODE_SAMPLES = 20.0
-#: ... and at most this share of the record: a slower mode's decay is a trend across the record,
-#: which a drift (or the hysteresis' offset) explains as well.
-MAX_START_MODE_SHARE = 0.2
 #: A search column whose norm is below this share of a typical column's (the median) carries nothing.
 NEGLIGIBLE_COLUMN = 1e-9
 
@@ -242,21 +232,6 @@ def mode_lags(signal, time_constants_s, sample_period_s: float) -> np.ndarray:
         mode = OutputStages(creep_alpha=[alpha], creep_beta=[beta], creep_weights=[1.0])
         columns[:, j] = mode.run(np.zeros_like(x), x)[0] - x
     return columns
-
-
-def mode_free_decays(n_samples: int, time_constants_s, sample_period_s: float) -> np.ndarray:
-    """``(n_samples, m)`` columns: what each creep mode (as :func:`mode_lags` runs it) adds when it
-    starts one volt above rest, ``α_j^(k+1)`` at sample k -- the free decay a history before a
-    record leaves, about ``exp(−t/τ_j)``.
-
-    Examples
-    --------
-    >>> mode_free_decays(3, [0.5], 1e-3).round(4).tolist()
-    [[0.998], [0.996], [0.994]]
-    """
-    k = np.arange(1, n_samples + 1, dtype=float)[:, None]
-    alphas = np.array([tustin_creep_mode(tau, sample_period_s)[0] for tau in time_constants_s])
-    return alphas.reshape(1, -1) ** k
 
 
 class CandidateFitter:
@@ -483,36 +458,9 @@ class CandidateFitter:
     def creep(self, base: Family) -> Family:
         taus = self.creep_time_constants_s()
         # the modes' lag behind the input: zero at rest, so the hysteresis keeps the static gain
-        u = self.v - base.input_offset_V
-        lags = mode_lags(u, taus, self.T)
+        lags = mode_lags(self.v - base.input_offset_V, taus, self.T)
         columns = {f"creep_{j}": self.gain_sign * lags[:, j] for j in range(taus.size)}
-        # A history before the record may leave a slow mode anywhere in the range the input spans
-        # (relative to the first sample, [below, above]): with weight w >= 0 the mode adds
-        # w (c(0) − u(0)) times its free decay.  That pair (w, w (c(0) − u(0))) spans a cone whose
-        # edges are a mode that starts at the bottom and one that starts at the top, so two
-        # non-negative columns per slow mode hold every admissible start -- a transient never
-        # larger than the mode's weight allows, never from a mode without weight.
-        below, above = float(u.min() - u[0]), float(u.max() - u[0])
-        eligible = (taus >= MIN_START_MODE_SAMPLES * self.T) & (taus <= MAX_START_MODE_SHARE * self.v.size * self.T)
-        if eligible.any():
-            # only modes that creep with their start at rest: a mode that lowers the error only by its
-            # start takes up what the operator state misses (independent seeds 74 and 75, given alone:
-            # a third input predicted 1.06 and 1.17 times the plain fit's RMS, 0.95 and 0.88 so)
-            at_rest = self._with(base, "creep", parameters={"driven_by": "input", "time_constants_s": taus.tolist()},
-                                 extras=columns, nonnegative=tuple(columns), extra_sign=self.gain_sign)
-            try:
-                shares = self.fit(at_rest).extra_coefficients
-                eligible &= np.array([shares[f"creep_{j}"] > 0 for j in range(taus.size)])
-            except IdentificationError:
-                pass
-        slow = np.flatnonzero(eligible)
-        decays = mode_free_decays(self.v.size, taus[slow], self.T)
-        for i, j in enumerate(slow):
-            del columns[f"creep_{j}"]
-            columns[f"creep_{j} from below"] = self.gain_sign * (lags[:, j] + below * decays[:, i])
-            columns[f"creep_{j} from above"] = self.gain_sign * (lags[:, j] + above * decays[:, i])
-        return self._with(base, "creep", parameters={"driven_by": "input", "time_constants_s": taus.tolist(),
-                                                     "start_range_V": [below, above]},
+        return self._with(base, "creep", parameters={"driven_by": "input", "time_constants_s": taus.tolist()},
                           extras=columns, nonnegative=tuple(columns), extra_sign=self.gain_sign)
 
     def displacement_creep(self, base: Family, rounds: int = 3) -> Family:
@@ -718,10 +666,8 @@ class CandidateFitter:
         if family.cause == "creep" and family.extras:
             taus = np.asarray(family.parameters["time_constants_s"], dtype=float)
             lags2 = mode_lags(v2 - family.input_offset_V, taus, self.T)
-            # a mode's weight is shared, its start on the first record is that record's (on the
-            # second the free decays are ``history2``): both of a mode's columns see its lag there
             shared = [dict(family.extras),
-                      {key: family.extra_sign * lags2[:, int(key.split()[0].split("_")[1])] for key in family.extras}]
+                      {key: family.extra_sign * lags2[:, j] for j, key in enumerate(family.extras)}]
         elif family.cause == "drift":
             scale = family.parameters["time_scale_s"]
             time2 = np.arange(v2.size) * self.T
@@ -745,11 +691,8 @@ class CandidateFitter:
         parameters = dict(family.parameters)
         stages = dict(family.stages)
         if family.cause == "creep" and family.extras:
-            shares, starts = _creep_modes(result.extra_coefficients, len(parameters["time_constants_s"]),
-                                          parameters.get("start_range_V", (0.0, 0.0)))
-            weights = [family.extra_sign * share for share in shares]
+            weights = [family.extra_sign * result.extra_coefficients[k] for k in family.extras]
             parameters["weights_um_per_V"] = weights
-            parameters["start_offsets_V"] = starts
             # mode columns are (C_j[u] - u): the -Σw u part moves into a2
             keep = [j for j, w in enumerate(weights) if w != 0.0]
             taus = [parameters["time_constants_s"][j] for j in keep]
@@ -768,38 +711,10 @@ class CandidateFitter:
         plant = ExtendedModel(hysteresis, StageSpec(sample_period_s=self.T, **stages))
         x = self.operator_input(family)
         state = initial_extended_state(plant, x[0], result.initial_state)
-        if family.cause == "creep" and _starts_away_from_rest(parameters):
-            # creep's modes are the last entries of the stage state (output_stages.h), one per kept mode
-            offsets = [parameters["start_offsets_V"][j] for j in keep]
-            state.stages[len(state.stages) - len(offsets):] += offsets
         model = plant if family.input_stage is None else InputStageModel(plant, family.input_stage[0],
                                                                          family.input_stage[1], self.T)
         prediction = model.simulate(self.v, state)
         return CandidateFit(family.cause, model, prediction, parameters, state, result, family)
-
-
-def _creep_modes(coefficients: dict, n_modes: int, start_range_V) -> tuple:
-    """``(shares, starts_V)`` of a creep fit's modes: each mode's coefficient (>= 0) and its state
-    at the start relative to the first sample (0 for a mode without a start column: at rest)."""
-    below, above = start_range_V
-    shares, starts = [], []
-    for j in range(n_modes):
-        # (the bounded solve may leave -1e-18 where a bound holds)
-        if f"creep_{j}" in coefficients:
-            shares.append(max(coefficients[f"creep_{j}"], 0.0))
-            starts.append(0.0)
-            continue
-        low = max(coefficients.get(f"creep_{j} from below", 0.0), 0.0)
-        high = max(coefficients.get(f"creep_{j} from above", 0.0), 0.0)
-        shares.append(low + high)
-        # the share-weighted edge of the range
-        starts.append((low * below + high * above) / (low + high) if low + high > 0 else 0.0)
-    return shares, starts
-
-
-def _starts_away_from_rest(parameters: dict) -> bool:
-    """Whether a creep fit starts any mode away from rest."""
-    return any(offset != 0.0 for offset in parameters.get("start_offsets_V", ()))
 
 
 def initial_extended_state(plant: ExtendedModel, voltage0_V: float, operators) -> ExtendedState:

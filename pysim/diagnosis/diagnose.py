@@ -270,10 +270,6 @@ def _reasons(candidates: dict, stats: dict, steps: dict | None = None) -> dict:
             used = [f"{t:.3g} s" for t, w in zip(taus, weights) if w != 0]
             shape = (f"{len(used)} non-negative creep mode(s) of the input, of {len(taus)} "
                      f"({', '.join(used) or 'none'}), Σw = {sum(weights):.4g} µm/V")
-            started = [f"{t:.3g} s at {s:+.3g} V" for t, w, s in zip(taus, weights, p.get("start_offsets_V", []))
-                       if w != 0 and s != 0]
-            if started:
-                shape += f"; a history before the record left modes away from the first sample ({', '.join(started)})"
             hint = (f"direction-signed residual vs ln(time since change): correlation "
                     f"{stats['creep_log_correlation']:+.2f}")
         elif cause == "drift":
