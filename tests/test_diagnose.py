@@ -20,6 +20,7 @@ import pytest
 import scipy.signal
 
 from pysim.core.extended import ExtendedModel
+from pysim.core.invertibility import check_invertibility
 from pysim.core.spec import load_spec
 from pysim.diagnosis.candidates import EFFECTS as CATALOGUE
 from pysim.diagnosis.diagnose import diagnose
@@ -94,6 +95,9 @@ def assert_admissible(fit):
         weights = np.asarray(fit.parameters["weights_um_per_V"])
         tiny = 1e-9 * np.max(np.abs(weights))                       # the active-set solver's zeros
         assert np.all(weights >= -tiny) or np.all(weights <= tiny)  # no cancelling modes
+        # the model's hysteresis is the response before creep moves: a step moves the actuator its way
+        # at once, and creep only adds to it
+        assert check_invertibility(fit.model.hysteresis).invertible
     assert np.isfinite(fit.result.condition_number)
 
 

@@ -34,7 +34,11 @@ Every family is physically admissible by construction:
       ninth of the record, two per decade, and **non-negative** weights (in
       the direction of the actuator's gain): a monotone, log-like step
       response, never cancelling modes.  The hysteresis part is refitted with
-      them, so the static gain stays the measured one;
+      them, so the static gain stays the measured one, and the response right
+      after a step (that curve less the modes' weights) keeps the invertibility
+      margin: a step moves the actuator its way at once and creep only adds to
+      it (on a single sine a fast mode over a falling curve would otherwise
+      draw a phase shift);
     - driven by the displacement, ``y = G[h]`` with
       ``G = 1 − Σ s_j + Σ s_j C_j`` (shares ``s_j >= 0``, ``Σ s_j <= 0.5``, the
       same time constants): the displacement reached creeps on by a share of
@@ -115,6 +119,7 @@ class Family:
     transform: OutputStages = None
     extras: dict = field(default_factory=dict)
     nonnegative: tuple = ()
+    lagging: tuple = ()
     extra_sign: float = 1.0
     input_stage: tuple = None
 
@@ -461,7 +466,9 @@ class CandidateFitter:
         lags = mode_lags(self.v - base.input_offset_V, taus, self.T)
         columns = {f"creep_{j}": self.gain_sign * lags[:, j] for j in range(taus.size)}
         return self._with(base, "creep", parameters={"driven_by": "input", "time_constants_s": taus.tolist()},
-                          extras=columns, nonnegative=tuple(columns), extra_sign=self.gain_sign)
+                          extras=columns, nonnegative=tuple(columns), extra_sign=self.gain_sign,
+                          # the response right after a step keeps the settled one's sign (see identify)
+                          lagging=tuple(columns) if self.gain_sign > 0 else ())
 
     def displacement_creep(self, base: Family, rounds: int = 3) -> Family:
         """Creep driven by the hysteresis output (see the module notes).
@@ -638,7 +645,7 @@ class CandidateFitter:
                     thresholds_V=family.thresholds_V, input_offset_V=family.input_offset_V,
                     column_transform=None if family.transform is None else family.transform.apply_to_columns,
                     extra_regressors=family.extras or None, extra_nonnegative=family.nonnegative,
-                    require_excitation=False)
+                    lagging_extras=family.lagging, require_excitation=False)
 
     def fit(self, family: Family, rows=None) -> IdentificationResult:
         """The linear parameters of ``family`` fitted on ``rows`` (default: all)."""
@@ -682,7 +689,7 @@ class CandidateFitter:
             initial_states=[family.initial_state, state2], voltage_range_V=(float(x1.min()), float(x1.max())),
             model=self.kind, operator=self.operator,
             column_transform=None if family.transform is None else family.transform.apply_to_columns,
-            shared_extras=shared, own_extras=own, extra_nonnegative=family.nonnegative,
+            shared_extras=shared, own_extras=own, extra_nonnegative=family.nonnegative, lagging_extras=family.lagging,
             fit_rows=[np.arange(x1.size) if rows is None else rows, np.arange(x2.size) if rows2 is None else rows2],
             name=self.name, description=self.description)
 

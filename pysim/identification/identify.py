@@ -299,12 +299,17 @@ def _operator_template(r, operator: str, input_offset_V: float, voltage_range_V)
 
 
 def _constraint_rows(template: HysteresisModel, cubic: bool, n_params: int, operator_columns, operator_factors,
-                     margin, nonnegative_columns=()):
+                     margin, nonnegative_columns=(), lagging_columns=()):
     """Rows G, h with G θ >= h: the ``template``'s operators (:func:`_operator_template`) weighted
     into an invertible model over its voltage range with slope >= ``margin`` (none when ``margin`` is
-    None), and the coefficients in ``nonnegative_columns`` >= 0."""
+    None), the same with the coefficients in ``lagging_columns`` taken off the slope, and the
+    coefficients in ``nonnegative_columns`` >= 0."""
     if margin is not None:
         G, h = _invertibility_rows(template, n_params, cubic, operator_columns, margin, operator_factors)
+        if len(lagging_columns):
+            after_step = G.copy()
+            after_step[:, list(lagging_columns)] -= 1.0
+            G, h = np.vstack([G, after_step]), np.concatenate([h, h])
     else:
         G, h = np.zeros((0, n_params)), np.zeros(0)
     nonneg = list(nonnegative_columns)
@@ -678,7 +683,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
              operator: str = "osp", thresholds_V=None, warmup="auto", fit_slice: slice = None,
              min_slope_fraction: float = 0.01, extra_regressors: dict = None, extra_nonnegative=(),
              column_transform=None, initial_state=None, start_state=None, merge_unexcited: bool = True,
-             fit_rows=None,
+             fit_rows=None, lagging_extras=(),
              input_offset_V: float = None, require_excitation: bool = True, name: str = None,
              description: str = "") -> IdentificationResult:
     """Fit an MPI or CPI model to a measured record.
@@ -713,6 +718,13 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         coefficients come back in ``extra_coefficients``.
     extra_nonnegative : iterable of str
         Names of extra regressors whose coefficient is constrained to be >= 0.
+    lagging_extras : iterable of str
+        Names of extra regressors that are how far a unit-gain lag of the input trails it
+        (``C[u] − u``: creep modes).  The hysteresis curve is then the settled one, and the
+        response right after a voltage step is its slope less these coefficients; that slope is
+        held to the same invertibility margin, so a step moves the actuator its way at once and
+        creep only adds to it (on a single sine, a fast mode over a falling curve could otherwise
+        draw a phase shift).
     column_transform : callable, optional
         Linear map applied to every column of the hysteresis model's design
         matrix (an (N, p) array in, the same shape out), for models whose output
@@ -784,7 +796,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     r = (eq13_thresholds(n_operators, hi - lo, operator) if thresholds_V is None
          else np.asarray(thresholds_V, dtype=float))
     cubic = model == "mpi"
-    extras = _checked_extras(extra_regressors, extra_nonnegative, v.size)
+    extras = _checked_extras(extra_regressors, extra_nonnegative, v.size, lagging_extras)
     n_params_hint = (2 if cubic else 1) + int(np.count_nonzero(r)) + 1 + len(extras)
     if n_rows < n_params_hint + 1:
         raise IdentificationError(
@@ -823,7 +835,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     G, h = _constraint_rows(_operator_template(r, operator, input_offset, (lo, hi)), cubic, n_params,
                             effective_columns, factor,
                             min_slope_fraction * mean_gain if min_slope_fraction >= 0 else None,
-                            [n_hyst + j for j, key in enumerate(extras) if key in set(extra_nonnegative)])
+                            [n_hyst + j for j, key in enumerate(extras) if key in set(extra_nonnegative)],
+                            [n_hyst + j for j, key in enumerate(extras) if key in set(lagging_extras)])
     extra_matrix = np.column_stack(list(extras.values())) if extras else np.zeros((v.size, 0))
     window = _WindowFit(columns, low_w, high_w, y_w, u_w, extra_matrix[rows], G, h, (low[0], high[0]))
 
@@ -971,18 +984,19 @@ def _checked_rows(voltage_V, displacement_um, model, warmup, fit_slice, fit_rows
     return v, y, rows, first, stop, start
 
 
-def _checked_extras(extra_regressors, extra_nonnegative, n_samples: int) -> dict:
+def _checked_extras(extra_regressors, extra_nonnegative, n_samples: int, lagging_extras=()) -> dict:
     """The extra regressors as float columns of the record's length, checked with the names of the
-    non-negative ones."""
+    non-negative and the lagging ones."""
     extras = dict(extra_regressors or {})
     for key, column in extras.items():
         column = np.asarray(column, dtype=float).ravel()
         if column.shape != (n_samples,):
             raise IdentificationError(f"extra regressor {key!r} has {column.size} samples, not {n_samples}")
         extras[key] = column
-    unknown = set(extra_nonnegative) - set(extras)
-    if unknown:
-        raise IdentificationError(f"extra_nonnegative names no extra regressor: {sorted(unknown)}")
+    for what, named in (("extra_nonnegative", extra_nonnegative), ("lagging_extras", lagging_extras)):
+        unknown = set(named) - set(extras)
+        if unknown:
+            raise IdentificationError(f"{what} names no extra regressor: {sorted(unknown)}")
     return extras
 
 
@@ -1315,6 +1329,7 @@ def _fit_through_transform(columns: _Columns, column_transform, record: _RecordA
 def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_states, voltage_range_V,
                      model: str = "mpi", operator: str = "osp", column_transform=None, shared_extras=None,
                      own_extras=None, extra_nonnegative=(), fit_rows=None, min_slope_fraction: float = 0.01,
+                     lagging_extras=(),
                      name: str = None, description: str = "") -> IdentificationResult:
     """Fit one model's linear parameters on several records of the same actuator.
 
@@ -1351,6 +1366,9 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
         coefficient each, fitted on its record only.
     extra_nonnegative : iterable of str
         Names of shared extras whose coefficients must be >= 0.
+    lagging_extras : iterable of str
+        Shared extras that trail the input, taken off the slope right after a step as in
+        :func:`identify`.
     fit_rows : sequence of index arrays, optional
         Per record, the samples fitted (default: all).
 
@@ -1418,7 +1436,8 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
     G, h = _constraint_rows(_operator_template(r, operator, input_offset_V, (lo, hi)), cubic, n_params,
                             effective_columns, factor,
                             min_slope_fraction * mean_gain if min_slope_fraction >= 0 else None,
-                            [n_hyst + j for j, key in enumerate(shared_names) if key in set(extra_nonnegative)])
+                            [n_hyst + j for j, key in enumerate(shared_names) if key in set(extra_nonnegative)],
+                            [n_hyst + j for j, key in enumerate(shared_names) if key in set(lagging_extras)])
     A_all = np.vstack([block[k] for block, k in zip(blocks, rows)])
     y_all = np.concatenate([y[k] for y, k in zip(targets, rows)])
     theta, active, condition = solve_lsi(A_all, y_all, G, h, names)
