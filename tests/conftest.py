@@ -67,6 +67,11 @@ def pytest_configure(config):
 
 
 def pytest_report_header(config):
+    """Where pysim comes from, and the floating-point kernels the run uses (tests/pin_kernels.sh)."""
+    import os
+
     import pysim
 
-    return f"pysim {pysim.__version__} from {pysim.__file__}"
+    kernels = ", ".join(f"{name}={os.environ[name]}" for name in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")
+                        if os.environ.get(name)) or "not pinned"
+    return [f"pysim {pysim.__version__} from {pysim.__file__}", f"kernels: {kernels}"]

@@ -7,7 +7,8 @@
 #   4. runs the test suite from that empty folder against the installed package
 #      (tests/conftest.py checks that pysim is not imported from this checkout),
 #      one worker process per core (pytest-xdist), each test file on one worker
-#      so that a file's shared fixtures are computed once.
+#      so that a file's shared fixtures are computed once, with the BLAS and numpy
+#      kernels pinned (tests/pin_kernels.sh).
 # PIEZO_MPI_VENV names the environment to create (default: a temporary folder);
 # PIEZO_MPI_TEST_WORKERS the number of worker processes (default: one per core).
 set -euo pipefail
@@ -63,6 +64,8 @@ EOF
 
 echo "== test suite against the installed package"
 cd "$WORK/user"
+# the same floating-point kernels on every x86-64 machine (why: in the file)
+. "$REPO/tests/pin_kernels.sh"
 # one BLAS thread per worker: the workers already use every core, and BLAS threads beside them
 # would only wait on each other
 PIEZO_MPI_TEST_INSTALLED=1 PIEZO_MPI_REPO="$REPO" OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 \
