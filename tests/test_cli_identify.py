@@ -185,3 +185,34 @@ def test_too_few_samples_for_the_parameters(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "short.csv" in err and "parameters" in err
     assert not (tmp_path / "m.py").exists()
+
+
+def test_a_history_floor_makes_the_spec_from_rest_the_fit_after_the_records_lowest_point(tmp_path, capsys):
+    """`--history-floor 0` (a unipolar amplifier) on outside-class seed 271's first record, which starts
+    at 92 V and reaches 0 V at sample 2506: the spec simulated from rest, as an FMU runs it, is the fit
+    from the lowest point on; without the floor it misses by a constant.  A floor above the record's
+    lowest voltage is refused with one line naming it, and nothing is written."""
+    import outside_class_records
+
+    record = outside_class_records.make_outside_pair(271).train
+    data = tmp_path / "r271.csv"
+    t = np.arange(record.voltage_V.size) / record.sample_rate_hz
+    np.savetxt(data, np.column_stack([t, record.voltage_V, record.displacement_um]), delimiter=",",
+               header="time_s,voltage_V,displacement_um", comments="")
+    lowest = int(np.argmin(record.voltage_V))
+    gaps = {}
+    for floor in (None, "0"):
+        spec = tmp_path / f"floor_{floor}.py"
+        assert main(["identify", str(data), "--out", str(spec), "--json"]
+                    + ([] if floor is None else ["--history-floor", floor])) == 0
+        report = json.loads(capsys.readouterr().out)
+        model = load_spec(spec)
+        fitted = model.simulate(record.voltage_V, report["identifiability"]["initial_state_V"])
+        gaps[floor] = np.max(np.abs(model.simulate(record.voltage_V)[lowest:] - fitted[lowest:]))
+    span = np.ptp(record.displacement_um)
+    assert gaps["0"] < 1e-9 * span and gaps[None] > 0.1 * span
+    spec = tmp_path / "refused.py"
+    assert main(["identify", str(data), "--out", str(spec), "--history-floor", "5"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "r271.csv" in err and "history_floor_V = 5 V is above the record's lowest voltage" in err
+    assert len(err.splitlines()) == 1 and not spec.exists()

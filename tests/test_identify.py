@@ -435,6 +435,24 @@ def test_a_joint_fit_recovers_what_neither_record_alone_determines():
     assert fit.objective < 1e-12 and fit.model.check_invertibility().invertible
 
 
+def test_a_joint_fit_with_a_history_floor_clips_each_given_state_to_what_such_a_history_leaves():
+    """The second record's state of -10 V on its top operator needs a history below 0 V: with a floor
+    of 0 V it is taken as 0 (the fit then misses that record), while a plant whose state is 0 there
+    is fitted exactly as without the floor."""
+    truth, records, states = _two_records_of_one_plant()
+    settings = dict(thresholds_V=truth.thresholds_V, input_offset_V=0.0, voltage_range_V=(0.0, 100.0))
+    floored = identify_jointly(records, initial_states=states, history_floor_V=0.0, **settings)
+    assert floored.objective > 1e-3
+    reachable = (states[0], np.where(states[1] < 0.0, 0.0, states[1]))
+    full = records[1][0]
+    records[1] = (full, truth.simulate(full, reachable[1].copy()) - 1.5)
+    for floor in (None, 0.0):
+        fit = identify_jointly(records, initial_states=states, history_floor_V=floor, **settings)
+        assert (fit.objective < 1e-12) == (floor == 0.0)
+    with pytest.raises(IdentificationError, match="above the record's lowest voltage of record 0, 0 V at sample 0"):
+        identify_jointly(records, initial_states=states, history_floor_V=1.0, **settings)
+
+
 def test_a_joint_fit_shares_the_shared_extras_and_keeps_each_records_own():
     truth, records, states = _two_records_of_one_plant()
     ramps = [np.linspace(0.0, 1.0, v.size) for v, _ in records]
@@ -481,3 +499,62 @@ def test_regressors_of_some_rows_are_those_rows_of_the_whole_matrix():
         np.testing.assert_array_equal(part, whole[rows])
     from_row_1000, _ = regressors(v[1000:], thresholds, "osp", 0.0, True, initial_state=state)
     assert not np.array_equal(from_row_1000, whole[1000:])
+
+
+def test_a_state_left_by_a_history_below_the_record_but_above_the_floor_is_admitted():
+    """With a history floor of 0 V (a unipolar amplifier) the admissible states are those a history
+    above 0 V leaves, not only those above the record's lowest input: after a history 0 -> 150 -> 5 V, a sine record in
+    40-150 V starts with the operators of 45 V and up at 5 V, below anything the record visits, until
+    its first rise wipes them.  Noise free, the fit finds that state and is exact (a floor at the
+    record's lowest input would leave 2.8 % of the range)."""
+    base = scaled_paper_model(a1=0.0)        # CPI: the same model about any input offset
+    truth = HysteresisModel(0.0, base.a2, base.thresholds_V[:7], base.weights_um_per_V[:7],
+                            voltage_range_V=(0.0, 150.0), name="truth")
+    k = np.arange(12000)
+    v = 95.0 - 55.0 * np.cos(2 * np.pi * 3 * k / k.size) * np.where(k < k.size / 3, 1.0, 0.6)
+    history = np.concatenate([np.linspace(0.0, 150.0, 300), np.linspace(150.0, 5.0, 300),
+                              np.linspace(5.0, v[0], 100)])
+    _, state = truth.simulate(history, return_state=True)
+    assert np.all(state[3:] == 5.0)
+    y = truth.simulate(v, state)
+    result = identify(v, y, model="cpi", thresholds_V=truth.thresholds_V, history_floor_V=0.0)
+    assert result.model.input_offset_V == pytest.approx(40.0)
+    # the states in the model's input (v - 40 V)
+    np.testing.assert_allclose(result.initial_state + 40.0, state, atol=0.05)
+    assert result.errors["rms_error_pct"] < 1e-3
+    np.testing.assert_allclose(result.model.weights_um_per_V[1:], truth.weights_um_per_V[1:], rtol=2e-3)
+
+
+def test_with_a_history_floor_the_model_from_rest_is_its_fit_once_the_input_has_visited_it():
+    """On a record that reaches the floor (0 V), the fitted state is one a history above 0 V leaves, so
+    at the record's lowest point every operator is back at its demagnetised state and the model
+    simulated from rest (as the FMUs and `simulate` run it) is its fit from there on.  Outside-class
+    seed 271 (a Bouc-Wen actuator; band-limited noise from 92 V, at 0 V first at sample 2506): without
+    the floor the top operator is fitted at -13.3 V, and the model from rest misses its own fit by a
+    constant 6 µm after the lowest point (25 % of the range against the record)."""
+    import outside_class_records
+
+    record = outside_class_records.make_outside_pair(271).train
+    v, y = record.voltage_V, record.displacement_um
+    assert v.min() == 0.0 and v[0] > 50.0
+    lowest = int(np.argmin(v))
+    assert 0 < lowest < v.size - 1
+    free = identify(v, y)
+    gap_um = free.model.simulate(v)[lowest:] - free.prediction_um[lowest:]
+    assert np.median(np.abs(gap_um)) > 0.1 * np.ptp(y)                      # the defect the floor removes
+    result = identify(v, y, history_floor_V=0.0)
+    assert np.all(result.initial_state >= 0.0)
+    from_rest = result.model.simulate(v)
+    np.testing.assert_allclose(from_rest[lowest:], result.prediction_um[lowest:], atol=1e-9 * np.ptp(y))
+    assert not np.allclose(from_rest[:lowest], result.prediction_um[:lowest])   # the start still differs
+    # the bound costs the fit little: its RMS error within 10 % of the free state's
+    assert result.errors["rms_error_pct"] < 1.1 * free.errors["rms_error_pct"]
+
+
+def test_a_history_floor_above_the_records_lowest_voltage_is_refused():
+    v = multisine(4000)
+    y = scaled_paper_model().simulate(v)
+    with pytest.raises(IdentificationError, match=r"history_floor_V = 5 V is above the record's lowest voltage, 0 V"):
+        identify(v, y, history_floor_V=5.0)
+    with pytest.raises(IdentificationError, match="finite"):
+        identify(v, y, history_floor_V=float("nan"))

@@ -196,8 +196,17 @@ def auto_warmup(voltage_V, widest_band_V: float = None) -> int:
     return max(first_low, first_high)
 
 
-def operator_bounds(voltage_V, thresholds_V, operator: str, input_offset_V: float):
+def operator_bounds(voltage_V, thresholds_V, operator: str, input_offset_V: float, history_floor_V=None):
     """Operator outputs started from the lowest and the highest admissible state.
+
+    Parameters
+    ----------
+    history_floor_V : float, optional
+        The lowest input (V) a history before the record may have visited (the
+        amplifier's lowest output).  The lowest admissible state is then the one
+        that a history which starts demagnetised and stays above it can leave:
+        ``min(0, floor - offset)`` for a one-sided operator, ``min(0, floor -
+        offset + r)`` for a play operator.  Without it the band is unbounded below.
 
     Returns
     -------
@@ -211,11 +220,28 @@ def operator_bounds(voltage_V, thresholds_V, operator: str, input_offset_V: floa
     >>> low, high = operator_bounds([5.0, 10.0, 0.0], [0.0, 4.0], "osp", 0.0)
     >>> low[:, 1].tolist(), high[:, 1].tolist()
     ([1.0, 6.0, 0.0], [5.0, 6.0, 0.0])
+
+    A history above 0 V cannot leave the 4 V operator below 0 V before the first sample:
+
+    >>> low, _ = operator_bounds([5.0, 10.0, 0.0], [0.0, 4.0], "osp", 0.0, history_floor_V=0.0)
+    >>> low[:, 1].tolist()
+    [1.0, 6.0, 0.0]
+    >>> free, _ = operator_bounds([3.0, 10.0], [0.0, 4.0], "osp", 0.0)
+    >>> floored, _ = operator_bounds([3.0, 10.0], [0.0, 4.0], "osp", 0.0, history_floor_V=0.0)
+    >>> float(free[0, 1]), float(floored[0, 1])
+    (-1.0, 0.0)
     """
     r = np.asarray(thresholds_V, dtype=float)
     probe = HysteresisModel(0.0, 0.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
                             input_offset_V=input_offset_V, name="probe")
-    _, low = probe.simulate(voltage_V, np.full(r.size, -_BIG), return_operators=True)
+    if history_floor_V is None:
+        lowest = np.full(r.size, -_BIG)
+    else:
+        # a history from the demagnetised state (0) that never goes below u_floor: a one-sided operator's
+        # state never falls below min(0, u_floor), a play operator's never below min(0, u_floor + r)
+        u_floor = float(history_floor_V) - float(input_offset_V)
+        lowest = np.minimum(0.0, u_floor + (r if operator == "play" else np.zeros_like(r)))
+    _, low = probe.simulate(voltage_V, lowest, return_operators=True)
     _, high = probe.simulate(voltage_V, np.full(r.size, _BIG), return_operators=True)
     return low, high
 
@@ -684,8 +710,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
              min_slope_fraction: float = 0.01, extra_regressors: dict = None, extra_nonnegative=(),
              column_transform=None, initial_state=None, start_state=None, merge_unexcited: bool = True,
              fit_rows=None, lagging_extras=(),
-             input_offset_V: float = None, require_excitation: bool = True, name: str = None,
-             description: str = "") -> IdentificationResult:
+             input_offset_V: float = None, require_excitation: bool = True, history_floor_V: float = None,
+             name: str = None, description: str = "") -> IdentificationResult:
     """Fit an MPI or CPI model to a measured record.
 
     Parameters
@@ -759,6 +785,15 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         only the rows fitted identify nothing (``fit_rows`` of a record that
         does), the model is to predict rows they do not excite, and it is
         ``a1 u³ + a2 u + offset``.
+    history_floor_V : float, optional
+        The lowest voltage the actuator was driven to before the record (V), e.g. 0 for a
+        unipolar amplifier.  The estimated start state is then one that a history from the
+        demagnetised state above this voltage leaves (:func:`operator_bounds`).  Without it
+        (default) the state is bounded only by the first sample, and a state below the
+        demagnetised level that the record never wipes stays in the fit: the model
+        simulated from rest (``simulate``, the FMUs) then misses its own fit by a constant
+        until the input's top.  With it, once the record has visited this voltage the model
+        from rest is its fit.  Must not be above the record's lowest voltage.
     name, description : str
         Stored in the model.
 
@@ -803,7 +838,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
             f"{n_rows} samples to fit (after a warm-up of {start}) but the model has {n_params_hint} "
             f"parameters: need at least {n_params_hint + 1}")
     u = v - input_offset
-    low, high = operator_bounds(v, r, operator, input_offset)
+    history_floor = _checked_history_floor(history_floor_V, v)
+    low, high = operator_bounds(v, r, operator, input_offset, history_floor)
     demagnetised = np.clip(np.zeros(r.size), low[0], high[0])
     estimate = warmup == "auto" and initial_state is None
     if initial_state is not None:
@@ -875,6 +911,21 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         initial_state_estimated=bool(estimate), not_identifiable_operators=not_identifiable,
         merged_into=merged, operator_travel_V=travel, condition_number=condition,
         unidentified_reason=unexcited_message or "")
+
+
+def _checked_history_floor(history_floor_V, voltage_V, where: str = ""):
+    """``history_floor_V`` as a float (or None); a floor above the record's lowest voltage is refused."""
+    if history_floor_V is None:
+        return None
+    floor = float(history_floor_V)
+    if not math.isfinite(floor):
+        raise IdentificationError(f"history_floor_V must be a finite voltage, got {history_floor_V!r}")
+    lowest = int(np.argmin(voltage_V))
+    if voltage_V[lowest] < floor:
+        raise IdentificationError(
+            f"history_floor_V = {floor:g} V is above the record's lowest voltage{where}, {voltage_V[lowest]:g} V at "
+            f"sample {lowest}: the amplifier goes lower than that floor")
+    return floor
 
 
 def _excitation_of_rows(v, rows, first_stop: tuple, r, bounds: tuple, span_V: float, merge: bool,
@@ -1329,7 +1380,7 @@ def _fit_through_transform(columns: _Columns, column_transform, record: _RecordA
 def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_states, voltage_range_V,
                      model: str = "mpi", operator: str = "osp", column_transform=None, shared_extras=None,
                      own_extras=None, extra_nonnegative=(), fit_rows=None, min_slope_fraction: float = 0.01,
-                     lagging_extras=(),
+                     lagging_extras=(), history_floor_V: float = None,
                      name: str = None, description: str = "") -> IdentificationResult:
     """Fit one model's linear parameters on several records of the same actuator.
 
@@ -1371,6 +1422,9 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
         :func:`identify`.
     fit_rows : sequence of index arrays, optional
         Per record, the samples fitted (default: all).
+    history_floor_V : float, optional
+        The lowest voltage the actuator was driven to before any record (V): each given
+        state is clipped to what a history above it leaves, as in :func:`identify`.
 
     Returns
     -------
@@ -1412,8 +1466,9 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
 
     travel = np.zeros(r.size)
     raw = []
-    for (v, _), state, k in zip(records, initial_states, rows):
-        low, high = operator_bounds(v, r, operator, input_offset_V)
+    for index, ((v, _), state, k) in enumerate(zip(records, initial_states, rows)):
+        history_floor = _checked_history_floor(history_floor_V, v, f" of record {index}")
+        low, high = operator_bounds(v, r, operator, input_offset_V, history_floor)
         travel += operator_travel(low, high, k, v) if k.size > 1 else 0.0
         A, columns = regressors(v, r, operator, input_offset_V, cubic,
                                 initial_state=np.clip(np.asarray(state, dtype=float), low[0], high[0]))

@@ -62,6 +62,11 @@ def register(subparsers) -> None:
     parser.add_argument("--warmup", default="auto",
                         help="'auto' (default: fit every sample, the operator state at the start estimated "
                              "with the weights) or a number of samples to leave out (model starts demagnetised)")
+    parser.add_argument("--history-floor", type=float, metavar="V",
+                        help="the lowest voltage the actuator was driven to before the record (e.g. 0 for a "
+                             "unipolar amplifier): the estimated start state is one such a history leaves, so "
+                             "the model simulated from rest (the FMUs) is the fit once the record reaches it "
+                             "(default: no floor)")
     parser.add_argument("--out", metavar="SPEC", help="write the model spec (a Python file) here")
     parser.add_argument("--name", help="model name (a C identifier; default from the output file name)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
@@ -90,6 +95,7 @@ def run(args) -> int:
             return identify(
                 data.voltage_V, data.displacement_um, n_operators=args.operators, model=kind,
                 operator=args.operator, warmup=warmup, fit_slice=slice(first_sample, None), name=name,
+                history_floor_V=args.history_floor,
                 description=f"{kind.upper()} model identified from {Path(data.source).name} by pysim identify")
         except IdentificationError as exc:
             raise UserError(f"{data.source}: {exc}") from exc
