@@ -58,7 +58,22 @@ def seed_arguments(description: str, default_records: int) -> argparse.ArgumentP
     parser.add_argument("--first-seed", type=int, default=0, help="first seed")
     parser.add_argument("--first-record-only", action="store_true",
                         help="diagnose the first record without the second (no validate=)")
+    parser.add_argument("--history-floor", action="store_true",
+                        help="give the diagnosis history_floor_V = min(0 V, the records' lowest voltage), as a "
+                             "user whose amplifier's lowest output is 0 V or the lowest a record reaches would")
     return parser
+
+
+#: Set by a benchmark's ``--history-floor`` (:func:`diagnose_options`).
+WITH_HISTORY_FLOOR = {"on": False}
+
+
+def diagnose_options(*voltages_V) -> dict:
+    """Keyword arguments of ``diagnose`` for records with these voltages: ``history_floor_V``
+    (min(0 V, their lowest voltage)) with ``--history-floor``, else none."""
+    if not WITH_HISTORY_FLOOR["on"]:
+        return {}
+    return {"history_floor_V": min(0.0, *(float(np.min(v)) for v in voltages_V))}
 
 
 def over_seeds(evaluate, first_seed: int, count: int, describe) -> list:
@@ -103,7 +118,8 @@ def diagnose_and_score(row: dict, first, second, truth: str, third_rms_pct):
 
     start = time.perf_counter()
     try:
-        d = diagnose(*first, validate=None if second is None else tuple(second))
+        d = diagnose(*first, validate=None if second is None else tuple(second),
+                     **diagnose_options(first[0], *([] if second is None else [second[0]])))
     except PiezoMPIError as exc:
         row.update(outcome="refused", named="refused", message=str(exc), seconds=time.perf_counter() - start)
         return None

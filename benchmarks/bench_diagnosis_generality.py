@@ -87,7 +87,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_common import over_seeds, seed_arguments
+from bench_common import WITH_HISTORY_FLOOR, diagnose_options, over_seeds, seed_arguments
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 if str(TESTS) not in sys.path:
@@ -129,14 +129,15 @@ class _Api:
         args = (train.voltage_V, train.displacement_um, train.sample_rate_hz)
         if self.validate is not False:
             try:
-                result = self.diagnose(*args, validate=(val.voltage_V, val.displacement_um, val.sample_rate_hz))
+                result = self.diagnose(*args, validate=(val.voltage_V, val.displacement_um, val.sample_rate_hz),
+                                       **diagnose_options(train.voltage_V, val.voltage_V))
                 self.validate = True
                 return result
             except TypeError as exc:
                 if not ("unexpected keyword" in str(exc) and "validate" in str(exc)):
                     raise
                 self.validate = False
-        return self.diagnose(*args)
+        return self.diagnose(*args, **diagnose_options(train.voltage_V))
 
 
 def _attribute(obj, *names):
@@ -252,7 +253,8 @@ def _play_excitation(api, pair, excitation_V, seed) -> dict:
     and say whether it names the truth."""
     played = records.respond(pair, excitation_V, noise_seed=10_000_000 + seed)
     try:
-        again = api.diagnose(played.voltage_V, played.displacement_um, played.sample_rate_hz)
+        again = api.diagnose(played.voltage_V, played.displacement_um, played.sample_rate_hz,
+                             **diagnose_options(played.voltage_V))
     except api.refusal as exc:
         return {"picks_truth": False, "named_after": "refused", "message_after": str(exc)}
     except Exception as exc:
@@ -483,6 +485,7 @@ def main(argv=None) -> int:
     parser = seed_arguments(__doc__.split("\n\n")[0], 30)
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
     args = parser.parse_args(argv)
+    WITH_HISTORY_FLOOR["on"] = args.history_floor
     api = _Api()
     if args.first_record_only:
         api.validate = False           # as a user without a second record runs it

@@ -30,7 +30,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from bench_common import diagnose_and_score, over_seeds, print_outcome_summary, seed_arguments, settled_rms_pct
+from bench_common import (WITH_HISTORY_FLOOR, diagnose_and_score, over_seeds, print_outcome_summary, seed_arguments,
+                          settled_rms_pct)
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 if str(TESTS) not in sys.path:
@@ -62,6 +63,7 @@ def evaluate(seed: int, second_record: bool = True) -> dict:
 
 def main(argv=None) -> int:
     args = seed_arguments(__doc__.split("\n\n")[0], 24).parse_args(argv)
+    WITH_HISTORY_FLOOR["on"] = args.history_floor
     rows = over_seeds(lambda seed: evaluate(seed, not args.first_record_only), args.first_seed, args.records,
                       lambda row: f"{row['plant']} {row['effect']} -> {row['named']} ({row['outcome']}), "
                                   f"{row['seconds']:.1f} s")

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_common import over_seeds, seed_arguments
+from bench_common import WITH_HISTORY_FLOOR, diagnose_options, over_seeds, seed_arguments
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 if str(TESTS) not in sys.path:
@@ -104,7 +104,8 @@ def evaluate(seed: int, second_record: bool = True) -> dict:
     t0 = time.perf_counter()
     try:
         d = diagnose(first.voltage_V, first.displacement_um, fs,
-                     validate=(second.voltage_V, second.displacement_um, fs) if second_record else None)
+                     validate=(second.voltage_V, second.displacement_um, fs) if second_record else None,
+                     **diagnose_options(first.voltage_V, *([second.voltage_V] if second_record else [])))
     except PiezoMPIError as exc:
         row.update(outcome="refused", cause=None, causes=[], why=f"{type(exc).__name__}: {exc}",
                    seconds=time.perf_counter() - t0)
@@ -194,6 +195,7 @@ def main(argv=None) -> int:
     parser = seed_arguments(__doc__.split("\n\n")[0], 60)
     parser.add_argument("--json", metavar="FILE", help="also save the per-seed results as JSON")
     args = parser.parse_args(argv)
+    WITH_HISTORY_FLOOR["on"] = args.history_floor
     start = time.perf_counter()
     rows = over_seeds(lambda seed: evaluate(seed, not args.first_record_only), args.first_seed, args.records,
                       lambda row: f"{row['truth']} -> {row['cause']} ({row['outcome']}), {row['seconds']:.1f} s")

@@ -282,3 +282,24 @@ def test_programs_exit_with_code_2_and_one_line(tmp_path, command):
     assert result.returncode == 2
     assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr, result.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_diagnose_refuses_a_history_floor_above_a_records_lowest_voltage_before_any_work(tmp_path, capsys):
+    """`--history-floor` says how low the amplifier ever drove the actuator; a record that goes lower
+    contradicts it: one line naming the record, the floor and where the record goes below, exit 2,
+    nothing written."""
+    from pysim.identification.data import MeasuredData, save_measured
+
+    k = np.arange(3000)
+    v = 60.0 + 50.0 * np.sin(2 * np.pi * k / 600)
+    first = save_measured(MeasuredData(k / 2000.0, v, 0.1 * v, "first"), tmp_path / "first.csv")
+    lowest = int(np.argmin(v))
+    before = snapshot(tmp_path)
+    code = pysim_main(["diagnose", str(first), "--history-floor", "20", "--out", str(tmp_path / "x.py"),
+                       "--report", str(tmp_path / "report")])
+    assert code == 2
+    message = one_error_line(capsys, "pysim diagnose: error: ")
+    expected = (f"pysim diagnose: error: {first}: the history floor, 20 V, is above the record's lowest voltage, "
+                f"{v[lowest]:g} V at sample {lowest}")
+    assert message.startswith(expected), message
+    assert snapshot(tmp_path) == before

@@ -214,5 +214,5 @@ def test_a_history_floor_makes_the_spec_from_rest_the_fit_after_the_records_lowe
     spec = tmp_path / "refused.py"
     assert main(["identify", str(data), "--out", str(spec), "--history-floor", "5"]) == 2
     err = capsys.readouterr().err.strip()
-    assert "r271.csv" in err and "history_floor_V = 5 V is above the record's lowest voltage" in err
+    assert "r271.csv" in err and "the history floor, 5 V, is above the record's lowest voltage" in err
     assert len(err.splitlines()) == 1 and not spec.exists()

@@ -2346,3 +2346,47 @@ def test_without_a_second_record_a_creep_model_that_misses_the_record_gives_way_
     delivered = _third_record_rms(pair, d.extended.model)
     assert delivered < _third_record_rms(pair, d.baseline.model)
     assert delivered < _third_record_rms(pair, d.candidates["creep"].model)
+
+
+def test_a_history_floor_makes_the_model_delivered_run_from_rest_and_predict_a_new_input():
+    """Outside-class seed 271 (a Bouc-Wen actuator with a 0-150 V amplifier and a delay; its first record
+    starts at 92 V and reaches 0 V at sample 2506).  Without a floor the top operator's start state is
+    fitted at -13.3 V, which only a history below 0 V leaves; the delay is named, but its model,
+    simulated from rest on a third input the diagnosis never saw, misses the actuator's noise-free
+    response worse than the plain fit does.  Told that the amplifier's lowest output is 0 V, the same
+    cause is named, every start state is one a history above 0 V leaves, and the model delivered
+    predicts the third input several times better than the plain fit."""
+    import outside_class_records
+
+    pair = outside_class_records.make_outside_pair(271)
+    first, second, third = pair.train, pair.validation, pair.test
+    settle = int(0.1 * third.sample_rate_hz)
+
+    def third_rms(model):
+        return float(np.sqrt(np.mean((model.simulate(third.voltage_V)[settle:] - third.clean_um[settle:]) ** 2)))
+
+    ratio = {}
+    for floor in (None, 0.0):
+        d = diagnose(first.voltage_V, first.displacement_um, first.sample_rate_hz,
+                     validate=(second.voltage_V, second.displacement_um, second.sample_rate_hz), history_floor_V=floor)
+        assert d.cause == "delay", d.why
+        ratio[floor] = third_rms(d.extended.model) / third_rms(d.baseline.model)
+        if floor is not None:
+            assert np.all(np.asarray(d.extended.fit.state.operators) >= -1e-12)
+    assert ratio[None] > 1.0 and ratio[0.0] < 0.5, ratio
+
+
+def test_a_history_floor_above_a_records_lowest_voltage_is_refused_naming_the_record(plant):
+    from pysim.diagnosis.errors import DiagnosisError
+
+    v = multisine(plant, 3000, 1)
+    y = noisy(plant.simulate(v), 1)
+    lowest = int(np.argmin(v))
+    assert v[lowest] < 5.0
+    with pytest.raises(DiagnosisError, match=r"^a\.csv: the history floor, 5 V, is above the record's lowest "
+                                             rf"voltage, {re.escape(f'{v[lowest]:g}')} V at sample {lowest}:"):
+        diagnose(v, y, 1000.0, source="a.csv", history_floor_V=5.0)
+    with pytest.raises(DiagnosisError, match=r"^second record: the history floor, -5 V, is above"):
+        diagnose(v, y, 1000.0, validate=(v - 10.0, y, 1000.0), history_floor_V=-5.0)
+    with pytest.raises(DiagnosisError, match="finite"):
+        diagnose(v, y, 1000.0, history_floor_V=float("inf"))

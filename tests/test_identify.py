@@ -554,7 +554,7 @@ def test_with_a_history_floor_the_model_from_rest_is_its_fit_once_the_input_has_
 def test_a_history_floor_above_the_records_lowest_voltage_is_refused():
     v = multisine(4000)
     y = scaled_paper_model().simulate(v)
-    with pytest.raises(IdentificationError, match=r"history_floor_V = 5 V is above the record's lowest voltage, 0 V"):
+    with pytest.raises(IdentificationError, match=r"the history floor, 5 V, is above the record's lowest voltage, 0 V"):
         identify(v, y, history_floor_V=5.0)
     with pytest.raises(IdentificationError, match="finite"):
         identify(v, y, history_floor_V=float("nan"))

@@ -279,13 +279,14 @@ class CandidateFitter:
 
     def __init__(self, voltage_V, displacement_um, sample_period_s: float, *, n_operators: int = 10,
                  model: str = "mpi", operator: str = "osp", name: str = "extended_mpi", description: str = "",
-                 fixed_hysteresis=None, baseline_result=None):
+                 fixed_hysteresis=None, baseline_result=None, history_floor_V=None):
         self.v = np.asarray(voltage_V, dtype=float)
         self.y = np.asarray(displacement_um, dtype=float)
         self.T = float(sample_period_s)
         self.n = int(n_operators)
         self.kind, self.operator = model, operator
         self.name, self.description = name, description
+        self.history_floor_V = history_floor_V
         self.cubic = model == "mpi"
         self._designs = {}
         self.period_samples = None
@@ -299,14 +300,22 @@ class CandidateFitter:
             return
         self._fixed_design = None
         self.baseline_result = baseline_result if baseline_result is not None else identify(
-            self.v, self.y, n_operators=self.n, model=model, operator=operator, require_excitation=False)
+            self.v, self.y, n_operators=self.n, model=model, operator=operator, require_excitation=False,
+            history_floor_V=history_floor_V)
         try:
             self.richer_result = identify(self.v, self.y, n_operators=2 * self.n, model=model, operator=operator,
-                                          require_excitation=False)
+                                          require_excitation=False, history_floor_V=history_floor_V)
         except IdentificationError:
             self.richer_result = self.baseline_result
         self.u = self.v - self.baseline_result.model.input_offset_V
         self.gain_sign = gain_sign(self.v, self.y)
+
+    def floor_for(self, operators_input_V):
+        """The history floor for fits whose operators see ``operators_input_V`` (V): the user's, or
+        that input's lowest value where an input stage's output dips below it; None without a floor."""
+        if self.history_floor_V is None:
+            return None
+        return min(float(self.history_floor_V), float(np.min(operators_input_V)))
 
     def operator_outputs_V(self):
         """``(N, m)`` outputs of the richer rate-independent model's operators with a threshold
@@ -553,7 +562,7 @@ class CandidateFitter:
         record that travels further, as in the plain fit.
         """
         x = np.asarray(stage_output_V, dtype=float)
-        low, high = operator_bounds(x[:1], base.thresholds_V, self.operator, base.input_offset_V)
+        low, high = operator_bounds(x[:1], base.thresholds_V, self.operator, base.input_offset_V, self.floor_for(x))
         return [np.clip(base.initial_state, low[0], high[0]),
                 np.clip(np.zeros(len(base.thresholds_V)), low[0], high[0])]
 
@@ -631,7 +640,8 @@ class CandidateFitter:
         """
         kept = kept or self.fit(family)
         try:
-            estimated = identify(self.operator_input(family), self.y, start_state=family.initial_state,
+            x = self.operator_input(family)
+            estimated = identify(x, self.y, start_state=family.initial_state, history_floor_V=self.floor_for(x),
                                  **self._settings(family))
         except IdentificationError:
             return family, kept
@@ -649,7 +659,8 @@ class CandidateFitter:
 
     def fit(self, family: Family, rows=None) -> IdentificationResult:
         """The linear parameters of ``family`` fitted on ``rows`` (default: all)."""
-        return identify(self.operator_input(family), self.y, initial_state=family.initial_state, fit_rows=rows,
+        x = self.operator_input(family)
+        return identify(x, self.y, initial_state=family.initial_state, fit_rows=rows, history_floor_V=self.floor_for(x),
                         name=self.name, description=self.description, **self._settings(family))
 
     def fit_jointly(self, family: Family, voltage2_V, displacement2_um, state2, rows2=None,
@@ -691,7 +702,7 @@ class CandidateFitter:
             column_transform=None if family.transform is None else family.transform.apply_to_columns,
             shared_extras=shared, own_extras=own, extra_nonnegative=family.nonnegative, lagging_extras=family.lagging,
             fit_rows=[np.arange(x1.size) if rows is None else rows, np.arange(x2.size) if rows2 is None else rows2],
-            name=self.name, description=self.description)
+            history_floor_V=self.floor_for(np.concatenate((x1, x2))), name=self.name, description=self.description)
 
     def finish(self, family: Family, result: IdentificationResult) -> CandidateFit:
         """The model of a fitted family, its state and prediction."""

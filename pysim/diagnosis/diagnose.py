@@ -321,8 +321,8 @@ def _check_record(v, y, sample_rate_hz, what: str):
 def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, n_operators: int = 10,
              model: str = "mpi", operator: str = "osp", train_fraction: float = DEFAULT_TRAIN_FRACTION,
              warmup="auto", validate=None, name: str = "extended_mpi", source: str = "",
-             validate_source: str = "", repair_artefacts: bool = True, _swap_reason: str = "",
-             _halves: bool = True) -> Diagnosis:
+             validate_source: str = "", repair_artefacts: bool = True, history_floor_V: float = None,
+             _swap_reason: str = "", _halves: bool = True) -> Diagnosis:
     """Diagnose what a rate-independent MPI model misses on a measured record.
 
     Parameters
@@ -371,6 +371,13 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
         Repair the spikes and jumps found in either record before the
         diagnosis (:mod:`pysim.diagnosis.artefacts`); with False they are
         only reported.  Flat runs are always only reported.
+    history_floor_V : float, optional
+        The lowest voltage the actuator was driven to before either record (V),
+        e.g. 0 for a unipolar amplifier: every MPI fit's start state is one that a
+        history above it leaves (``history_floor_V`` of
+        :func:`pysim.identification.identify.identify`), so the model delivered,
+        simulated from rest, is its fit once a record has visited the floor.
+        Default: no floor (the start state bounded by the first sample only).
 
     Returns
     -------
@@ -397,8 +404,10 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     ('none', (), True)
     """
     records = _prepared_records(voltage_V, displacement_um, sample_rate_hz, time_s, validate, source, validate_source)
+    _check_history_floor(history_floor_V, records)
     options = _Options(n_operators=n_operators, model=model, operator=operator, train_fraction=train_fraction,
-                       warmup=warmup, name=name, repair_artefacts=repair_artefacts)
+                       warmup=warmup, name=name, repair_artefacts=repair_artefacts,
+                       history_floor_V=None if history_floor_V is None else float(history_floor_V))
     # a second record diagnosed alone inside a diagnosis of two keeps the MPI models' own verdict (the
     # pair's rules read it as such); the general model judges the pair on both records instead
     return _DiagnosisRun(records, options, _swap_reason, halves_asked=_halves).diagnosis()
@@ -434,11 +443,29 @@ class _Options:
     warmup: object
     name: str
     repair_artefacts: bool
+    history_floor_V: float = None
 
     @property
     def fit(self) -> dict:
         """The settings every MPI fit is made with."""
-        return {"n_operators": self.n_operators, "model": self.model, "operator": self.operator}
+        return {"n_operators": self.n_operators, "model": self.model, "operator": self.operator,
+                "history_floor_V": self.history_floor_V}
+
+
+def _check_history_floor(history_floor_V, records) -> None:
+    """A history floor must be a finite voltage at or below both records' lowest voltage."""
+    if history_floor_V is None:
+        return
+    floor = float(history_floor_V)
+    if not np.isfinite(floor):
+        raise DiagnosisError(f"history_floor_V must be a finite voltage, got {history_floor_V!r}")
+    second = f"{records.validate_source}: " if records.validate_source else "second record: "
+    given = [(records.where, records.v)] + ([] if records.v2 is None else [(second, records.v2)])
+    for where, v in given:
+        lowest = int(np.argmin(v))
+        if v[lowest] < floor:
+            raise DiagnosisError(f"{where}the history floor, {floor:g} V, is above the record's lowest voltage, "
+                                 f"{v[lowest]:g} V at sample {lowest}: the amplifier goes lower than that floor")
 
 
 def _prepared_records(voltage_V, displacement_um, sample_rate_hz, time_s, validate, source,
@@ -550,7 +577,8 @@ class _DiagnosisRun:
             turned = diagnose(self.v2, self.y2, self.rate2, n_operators=o.n_operators, model=o.model,
                               operator=o.operator, train_fraction=o.train_fraction, validate=self.given,
                               name=o.name, source=self.validate_source or "second record",
-                              validate_source=self.source or "first record", _swap_reason=reason)
+                              validate_source=self.source or "first record", history_floor_V=o.history_floor_V,
+                              _swap_reason=reason)
         except (RolesStand, DiagnosisError):
             return None
         _note_resampling(turned.validation, self.records.resampled)
@@ -572,7 +600,7 @@ class _DiagnosisRun:
         # the second record's table scores each model once)
         if option.validation is None:
             option.validation = score_on_record(option.fit, self.v2, self.y2, self.T, self.train_range,
-                                                train_voltage_V=self.v)
+                                                train_voltage_V=self.v, history_floor_V=self.options.history_floor_V)
         return option.mse_um2 * option.validation["mse_um2"]
 
     def _delivered_by_second_record(self, verdict):
@@ -659,7 +687,7 @@ class _DiagnosisRun:
         try:
             self.fitter = CandidateFitter(v, self.y, T, n_operators=o.n_operators, model=o.model,
                                           operator=o.operator, name=o.name, description=description,
-                                          baseline_result=self.whole_fit)
+                                          baseline_result=self.whole_fit, history_floor_V=o.history_floor_V)
         except IdentificationError as exc:
             raise DiagnosisError(f"{where}{exc}") from exc
         self.fitter.period_samples = self.split.period_samples
@@ -762,8 +790,8 @@ class _DiagnosisRun:
         (:func:`dynamics_where_they_show`; none otherwise)."""
         o = self.options
         try:
-            second_unidentified = identify(self.v2, self.y2, n_operators=o.n_operators, model=o.model,
-                                           operator=o.operator, require_excitation=False).unidentified_reason
+            second_unidentified = identify(self.v2, self.y2, require_excitation=False,
+                                           **o.fit).unidentified_reason
         except IdentificationError:
             second_unidentified = ""
         if not second_unidentified:
@@ -997,7 +1025,8 @@ class _DiagnosisRun:
         each_alone, alone = _second_record_shows_none(self.v2, self.y2, self.rate2, self.validate_source,
                                                       n_operators=o.n_operators, model=o.model, operator=o.operator,
                                                       train_fraction=o.train_fraction,
-                                                      repair_artefacts=o.repair_artefacts)
+                                                      repair_artefacts=o.repair_artefacts,
+                                                      history_floor_V=o.history_floor_V)
         first, second = self.source or "the first record", self.validate_source or "the second record"
         if not each_alone and alone is not None and alone.cause in EFFECTS:
             # the second record alone names a cause the first record does not show: fitted on the second

@@ -96,7 +96,8 @@ class _SecondRecordScores:
         train_range = (float(v1.min()), float(v1.max()))
         for ev in every:
             if ev.validation is None:
-                ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1)
+                ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1,
+                                            history_floor_V=fitter.history_floor_V)
         self.noise2 = min(ev.validation["noise_um"] for ev in every)
         self.memory2 = path_memory(v2)
         self.shape = correct_validation_for_shape(every, v2, y2, self.noise2, self.memory2)
@@ -407,7 +408,7 @@ def second_record_fitter(fitter: CandidateFitter, v2, y2) -> CandidateFitter | N
     second record on its own."""
     try:
         second = CandidateFitter(v2, y2, fitter.T, n_operators=fitter.n, model=fitter.kind,
-                                 operator=fitter.operator)
+                                 operator=fitter.operator, history_floor_V=fitter.history_floor_V)
     except IdentificationError:
         return None
     second.period_samples = input_period(v2)
@@ -565,7 +566,7 @@ def creep_modes_of_general_model(fitter: CandidateFitter, run, extended: Evaluat
         return None
     if not on_halves:
         shaped.validation = score_on_record(shaped.fit, v2, y2, fitter.T, (float(fitter.v.min()), float(fitter.v.max())),
-                                            train_voltage_V=fitter.v)
+                                            train_voltage_V=fitter.v, history_floor_V=fitter.history_floor_V)
     kept = shaped.fit.parameters
     sentence = ("creep's modes delivered are the general model's, fitted "
                 + ("on the record and scored on its two halves" if on_halves else "on both records")
@@ -613,7 +614,7 @@ def fit_on_both_records(fitter: CandidateFitter, extended: Evaluation, v2, y2, s
         result = fitter.fit_jointly(family, v2, y2_corrected, state2, **settings)
         fit = fitter.finish(family, result)
         second = score_on_record(fit, v2, y2, sample_period_s, (float(fitter.v.min()), float(fitter.v.max())),
-                                 train_voltage_V=fitter.v)
+                                 train_voltage_V=fitter.v, history_floor_V=fitter.history_floor_V)
     except (IdentificationError, DiagnosisError):
         return None
     first = error_measures(fitter.y, fit.prediction_um)["rms_error_pct"]
@@ -866,7 +867,8 @@ def dynamics_where_they_show(fitter, run, reference, candidates, v1, v2, y2, noi
 
     def scored(ev):
         if ev.validation is None:
-            ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1)
+            ev.validation = score_on_record(ev.fit, v2, y2, fitter.T, train_range, train_voltage_V=v1,
+                                            history_floor_V=fitter.history_floor_V)
         return ev.validation["mse_um2"]
 
     def hysteresis(input_stage):
@@ -876,7 +878,7 @@ def dynamics_where_they_show(fitter, run, reference, candidates, v1, v2, y2, noi
             return reference.validation["prediction_um"]
         model = InputStageModel(reference.fit.model, *input_stage, fitter.T)
         return score_on_record(CandidateFit(reference.cause, model, None, {}), v2, y2, fitter.T, train_range,
-                               train_voltage_V=v1)["prediction_um"]
+                               train_voltage_V=v1, history_floor_V=fitter.history_floor_V)["prediction_um"]
 
     search = CandidateFitter(v2, y2, fitter.T, fixed_hysteresis=hysteresis)
     replaced = []
@@ -991,7 +993,8 @@ def _rate_independent_excess(fitter, v2, y2, memory2=None) -> float:
     """
     try:
         own = identify(v2, y2, n_operators=fitter.richer_result.model.n_operators, model=fitter.kind,
-                       operator=fitter.operator, require_excitation=False)
+                       operator=fitter.operator, require_excitation=False,
+                       history_floor_V=fitter.floor_for(v2))
     except IdentificationError:
         return math.inf
     error = y2 - own.prediction_um

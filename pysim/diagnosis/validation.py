@@ -114,7 +114,7 @@ def _shifted(p, shift: int):
 
 
 def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period_s: float,
-                    train_range_V, *, train_voltage_V=None) -> dict:
+                    train_range_V, *, train_voltage_V=None, history_floor_V=None) -> dict:
     """Score a fitted model on another record (see the module notes).
 
     Parameters
@@ -131,6 +131,10 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
         that counts is the one its hysteresis saw -- the stage's output (a
         low-pass narrows a fast input's range, and a step on the other record
         can take it beyond) -- so it is computed from this record when given.
+    history_floor_V : float, optional
+        The lowest voltage the actuator was driven to before this record (V): its
+        start state is one that a history above it leaves (see
+        :func:`pysim.identification.identify.operator_bounds`); default: no floor.
 
     Returns
     -------
@@ -160,7 +164,7 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
     plant = getattr(model, "plant", model) if isinstance(model, InputStageModel) else model
     x = model.stage_input(v) if isinstance(model, InputStageModel) else v
     modes = history_modes(plant, v.size, sample_period_s)
-    state, p = _StateSearch(plant, x, y, modes).best()
+    state, p = _StateSearch(plant, x, y, modes, history_floor_V).best()
     lo, hi = train_range_V
     level = v
     if isinstance(model, InputStageModel) and train_voltage_V is not None:
@@ -204,10 +208,12 @@ class _StateSearch:
     its prediction.
     """
 
-    def __init__(self, plant, x, y, modes):
+    def __init__(self, plant, x, y, modes, history_floor_V=None):
         self.plant, self.x, self.y, self.modes = plant, x, y, modes
         h = plant.hysteresis
-        self.low, self.high = operator_bounds(x, h.thresholds_V, h.operator, h.input_offset_V)
+        # the floor is the voltage's; an input stage's output may dip a little lower (it is the operators' input)
+        floor = None if history_floor_V is None else min(float(history_floor_V), float(np.min(x)))
+        self.low, self.high = operator_bounds(x, h.thresholds_V, h.operator, h.input_offset_V, floor)
         self.weights = np.asarray(h.weights_um_per_V, dtype=float)
         # the samples where each operator's admissible state still depends on where it started
         self.moving = [np.flatnonzero(self.high[:, i] - self.low[:, i] > 0) for i in range(h.n_operators)]

@@ -923,7 +923,7 @@ def _checked_history_floor(history_floor_V, voltage_V, where: str = ""):
     lowest = int(np.argmin(voltage_V))
     if voltage_V[lowest] < floor:
         raise IdentificationError(
-            f"history_floor_V = {floor:g} V is above the record's lowest voltage{where}, {voltage_V[lowest]:g} V at "
+            f"the history floor, {floor:g} V, is above the record's lowest voltage{where}, {voltage_V[lowest]:g} V at "
             f"sample {lowest}: the amplifier goes lower than that floor")
     return floor
 

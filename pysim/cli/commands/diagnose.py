@@ -44,6 +44,10 @@ def register(subparsers) -> None:
     parser.add_argument("--keep-artefacts", action="store_true",
                         help="report spikes and jumps of the displacement (which no model of the actuator "
                              "explains) without repairing them first; flat runs are only ever reported")
+    parser.add_argument("--history-floor", type=float, metavar="V",
+                        help="the lowest voltage the actuator was driven to before the records (e.g. 0 for a "
+                             "unipolar amplifier): every fit's start state is one such a history leaves, so the "
+                             "model delivered, run from rest, is its fit once a record reaches it (default: no floor)")
     add_data_options(parser)
     parser.set_defaults(func=run)
 
@@ -79,7 +83,7 @@ def run(args) -> int:
                       validate=None if other is None else (other.voltage_V, other.displacement_um,
                                                            other.sample_rate_hz),
                       validate_source="" if other is None else other.source,
-                      repair_artefacts=not args.keep_artefacts)
+                      repair_artefacts=not args.keep_artefacts, history_floor_V=args.history_floor)
     if args.report:
         from pysim.diagnosis.report import write_report
 
