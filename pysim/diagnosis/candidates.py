@@ -264,6 +264,10 @@ class CandidateFitter:
         The plain fit of this very record (``identify`` with these
         ``n_operators``, ``model`` and ``operator``, every sample, without
         requiring excitation), when the caller has made it already.
+    history_floor_V : float, optional
+        The lowest voltage the actuator was driven to before the record (V):
+        every fit's start state is one a history above it leaves
+        (:func:`pysim.identification.identify.operator_bounds`); default none.
 
     Examples
     --------
