@@ -167,8 +167,8 @@ from pysim.diagnosis.validation import score_on_record
 from pysim.identification.data import (checked_sample_rate, common_sample_rate, resample_record,
                                        resampling_stride)
 from pysim.identification.errors import DataError
-from pysim.identification.identify import (IdentificationError, identify, require_rising, settling_samples,
-                                            start_transient)
+from pysim.identification.identify import (IdentificationError, checked_history_floor, identify, require_rising,
+                                            settling_samples, start_transient)
 
 __all__ = ["diagnose", "Diagnosis"]
 
@@ -454,18 +454,13 @@ class _Options:
 
 def _check_history_floor(history_floor_V, records) -> None:
     """A history floor must be a finite voltage at or below both records' lowest voltage."""
-    if history_floor_V is None:
-        return
-    floor = float(history_floor_V)
-    if not np.isfinite(floor):
-        raise DiagnosisError(f"history_floor_V must be a finite voltage, got {history_floor_V!r}")
     second = f"{records.validate_source}: " if records.validate_source else "second record: "
     given = [(records.where, records.v)] + ([] if records.v2 is None else [(second, records.v2)])
     for where, v in given:
-        lowest = int(np.argmin(v))
-        if v[lowest] < floor:
-            raise DiagnosisError(f"{where}the history floor, {floor:g} V, is above the record's lowest voltage, "
-                                 f"{v[lowest]:g} V at sample {lowest}: the amplifier goes lower than that floor")
+        try:
+            checked_history_floor(history_floor_V, v)
+        except IdentificationError as exc:
+            raise DiagnosisError(f"{where}{exc}") from exc
 
 
 def _prepared_records(voltage_V, displacement_um, sample_rate_hz, time_s, validate, source,

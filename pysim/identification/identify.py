@@ -838,7 +838,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
             f"{n_rows} samples to fit (after a warm-up of {start}) but the model has {n_params_hint} "
             f"parameters: need at least {n_params_hint + 1}")
     u = v - input_offset
-    history_floor = _checked_history_floor(history_floor_V, v)
+    history_floor = checked_history_floor(history_floor_V, v)
     low, high = operator_bounds(v, r, operator, input_offset, history_floor)
     demagnetised = np.clip(np.zeros(r.size), low[0], high[0])
     estimate = warmup == "auto" and initial_state is None
@@ -913,8 +913,15 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         unidentified_reason=unexcited_message or "")
 
 
-def _checked_history_floor(history_floor_V, voltage_V, where: str = ""):
-    """``history_floor_V`` as a float (or None); a floor above the record's lowest voltage is refused."""
+def checked_history_floor(history_floor_V, voltage_V, where: str = ""):
+    """``history_floor_V`` as a float (or None); a floor above the record's lowest voltage (``where``
+    names the record in the message) or one that is not finite raises :class:`IdentificationError`.
+
+    Examples
+    --------
+    >>> checked_history_floor(0, [3.0, 150.0, 20.0])
+    0.0
+    """
     if history_floor_V is None:
         return None
     floor = float(history_floor_V)
@@ -1467,7 +1474,7 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
     travel = np.zeros(r.size)
     raw = []
     for index, ((v, _), state, k) in enumerate(zip(records, initial_states, rows)):
-        history_floor = _checked_history_floor(history_floor_V, v, f" of record {index}")
+        history_floor = checked_history_floor(history_floor_V, v, f" of record {index}")
         low, high = operator_bounds(v, r, operator, input_offset_V, history_floor)
         travel += operator_travel(low, high, k, v) if k.size > 1 else 0.0
         A, columns = regressors(v, r, operator, input_offset_V, cubic,
