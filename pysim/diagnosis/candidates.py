@@ -88,6 +88,7 @@ from pysim.identification.identify import (
     IdentificationError,
     IdentificationResult,
     identify,
+    history_floor_for_input,
     identify_jointly,
     operator_bounds,
     regressors,
@@ -315,11 +316,9 @@ class CandidateFitter:
         self.gain_sign = gain_sign(self.v, self.y)
 
     def floor_for(self, operators_input_V):
-        """The history floor for fits whose operators see ``operators_input_V`` (V): the user's, or
-        that input's lowest value where an input stage's output dips below it; None without a floor."""
-        if self.history_floor_V is None:
-            return None
-        return min(float(self.history_floor_V), float(np.min(operators_input_V)))
+        """The history floor for fits whose operators see ``operators_input_V`` (V)
+        (:func:`pysim.identification.identify.history_floor_for_input`)."""
+        return history_floor_for_input(self.history_floor_V, operators_input_V)
 
     def operator_outputs_V(self):
         """``(N, m)`` outputs of the richer rate-independent model's operators with a threshold

@@ -404,10 +404,9 @@ def diagnose(voltage_V, displacement_um, sample_rate_hz: float, *, time_s=None, 
     ('none', (), True)
     """
     records = _prepared_records(voltage_V, displacement_um, sample_rate_hz, time_s, validate, source, validate_source)
-    _check_history_floor(history_floor_V, records)
     options = _Options(n_operators=n_operators, model=model, operator=operator, train_fraction=train_fraction,
                        warmup=warmup, name=name, repair_artefacts=repair_artefacts,
-                       history_floor_V=None if history_floor_V is None else float(history_floor_V))
+                       history_floor_V=_checked_history_floor(history_floor_V, records))
     # a second record diagnosed alone inside a diagnosis of two keeps the MPI models' own verdict (the
     # pair's rules read it as such); the general model judges the pair on both records instead
     return _DiagnosisRun(records, options, _swap_reason, halves_asked=_halves).diagnosis()
@@ -428,6 +427,7 @@ class _Records:
     first_rate_hz: float = 0.0     # ... of this rate (Hz)
     v2: np.ndarray | None = None   # the second record, on the same rate (None: no second record)
     y2: np.ndarray | None = None
+    where2: str = ""               # the second record's name as a message prefix
     second_every: int = 1
     second_rate_hz: float = 0.0
     resampled: str = ""            # how the records were put on one rate ('' when they were not)
@@ -452,15 +452,17 @@ class _Options:
                 "history_floor_V": self.history_floor_V}
 
 
-def _check_history_floor(history_floor_V, records) -> None:
-    """A history floor must be a finite voltage at or below both records' lowest voltage."""
-    second = f"{records.validate_source}: " if records.validate_source else "second record: "
-    given = [(records.where, records.v)] + ([] if records.v2 is None else [(second, records.v2)])
+def _checked_history_floor(history_floor_V, records):
+    """The history floor as a float (or None): a finite voltage at or below both records' lowest
+    voltage, else DiagnosisError naming the record."""
+    given = [(records.where, records.v)] + ([] if records.v2 is None else [(records.where2, records.v2)])
+    floor = None
     for where, v in given:
         try:
-            checked_history_floor(history_floor_V, v)
+            floor = checked_history_floor(history_floor_V, v)
         except IdentificationError as exc:
             raise DiagnosisError(f"{where}{exc}") from exc
+    return floor
 
 
 def _prepared_records(voltage_V, displacement_um, sample_rate_hz, time_s, validate, source,
@@ -509,7 +511,7 @@ def _prepared_records(voltage_V, displacement_um, sample_rate_hz, time_s, valida
     records.resampled = "; ".join(notes)
     records.second_every = resampling_stride(rate2, sample_rate_hz)
     records.second_rate_hz = float(rate2)
-    records.v2, records.y2 = v2, y2
+    records.v2, records.y2, records.where2 = v2, y2, where2
     return records
 
 

@@ -35,8 +35,8 @@ import numpy as np
 from pysim.diagnosis.candidates import CandidateFit, initial_extended_state
 from pysim.diagnosis.input_stages import InputStageModel
 from pysim.diagnosis.residuals import record_noise_sigma
-from pysim.identification.identify import (best_clamped_state, operator_bounds, refine_state_through_stage,
-                                          short_history_states)
+from pysim.identification.identify import (best_clamped_state, history_floor_for_input, operator_bounds,
+                                          refine_state_through_stage, short_history_states)
 
 #: Alternations between the operator state and the offset/gain.
 STATE_ROUNDS = 4
@@ -211,9 +211,8 @@ class _StateSearch:
     def __init__(self, plant, x, y, modes, history_floor_V=None):
         self.plant, self.x, self.y, self.modes = plant, x, y, modes
         h = plant.hysteresis
-        # the floor is the voltage's; an input stage's output may dip a little lower (it is the operators' input)
-        floor = None if history_floor_V is None else min(float(history_floor_V), float(np.min(x)))
-        self.low, self.high = operator_bounds(x, h.thresholds_V, h.operator, h.input_offset_V, floor)
+        self.low, self.high = operator_bounds(x, h.thresholds_V, h.operator, h.input_offset_V,
+                                              history_floor_for_input(history_floor_V, x))
         self.weights = np.asarray(h.weights_um_per_V, dtype=float)
         # the samples where each operator's admissible state still depends on where it started
         self.moving = [np.flatnonzero(self.high[:, i] - self.low[:, i] > 0) for i in range(h.n_operators)]

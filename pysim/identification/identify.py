@@ -913,6 +913,21 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         unidentified_reason=unexcited_message or "")
 
 
+def history_floor_for_input(history_floor_V, operators_input_V):
+    """The history floor (V) for operators that see ``operators_input_V`` instead of the voltage (an
+    input stage's output, which may dip below the voltage's lowest value): the lower of the two;
+    None without a floor.
+
+    Examples
+    --------
+    >>> history_floor_for_input(0.0, [0.5, 80.0]), history_floor_for_input(0.0, [-0.2, 80.0])
+    (0.0, -0.2)
+    """
+    if history_floor_V is None:
+        return None
+    return min(float(history_floor_V), float(np.min(operators_input_V)))
+
+
 def checked_history_floor(history_floor_V, voltage_V, where: str = ""):
     """``history_floor_V`` as a float (or None); a floor above the record's lowest voltage (``where``
     names the record in the message) or one that is not finite raises :class:`IdentificationError`.
