@@ -216,3 +216,27 @@ def test_a_history_floor_makes_the_spec_from_rest_the_fit_after_the_records_lowe
     err = capsys.readouterr().err.strip()
     assert "r271.csv" in err and "the history floor, 5 V, is above the record's lowest voltage" in err
     assert len(err.splitlines()) == 1 and not spec.exists()
+
+
+def test_a_fit_the_record_does_not_determine_is_said(tmp_path, capsys):
+    """20 operators on a staircase of 13 V steps: the table says the record does not decide how the model
+    predicts a new input (the spread of its prediction of a full cycle, from the fitted samples'
+    information, is far above the noise); 5 operators on the same record are determined."""
+    from pysim.identification.determinacy import DETERMINED_SPREAD
+
+    levels = np.concatenate([np.arange(0.0, 150.0, 13.0), np.arange(0.0, 150.0, 13.0)[::-1]])
+    v = np.convolve(np.repeat(levels, 600), np.ones(3) / 3, mode="same")          # 3-sample ramps
+    v[0] = v[1] = 0.0
+    truth = identify(v, 0.3 * v, n_operators=1).model.with_parameters(
+        thresholds_V=(0.0, 40.0, 80.0, 120.0), weights_um_per_V=(0.0, 0.06, 0.05, 0.04))
+    y = truth.simulate(v) + np.random.default_rng(2).normal(0.0, 0.03, v.size)
+    data = tmp_path / "staircase.csv"
+    np.savetxt(data, np.column_stack([np.arange(v.size) / 1000.0, v, y]), delimiter=",",
+               header="time_s,voltage_V,displacement_um", comments="")
+    spreads = {}
+    for n in (20, 5):
+        assert main(["identify", str(data), "--operators", str(n), "--json"]) == 0
+        spreads[n] = json.loads(capsys.readouterr().out)["identifiability"]["cycle_prediction_spread_sigma"]
+    assert spreads[20] > DETERMINED_SPREAD > spreads[5]
+    assert main(["identify", str(data), "--operators", "20"]) == 0
+    assert "does not decide how this model predicts a new input" in capsys.readouterr().out

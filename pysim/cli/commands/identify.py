@@ -76,6 +76,7 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from pysim.core.spec import model_name_from_path, write_spec
+    from pysim.identification.determinacy import cycle_prediction_spread
     from pysim.identification.identify import IdentificationError, identify, settling_samples
 
     if args.operators < 1:
@@ -125,6 +126,7 @@ def run(args) -> int:
                           + (" (from the operator state estimated at the start of the record: "
                              f"{[round(float(x), 6) for x in chosen.initial_state]} V)"
                              if chosen.initial_state_estimated else "") + ".")
+    spread = cycle_prediction_spread(chosen, data.voltage_V)
     if args.json:
         print(json.dumps({
             "model": args.model,
@@ -133,13 +135,13 @@ def run(args) -> int:
             "warmup_samples": chosen.warmup_samples,
             "start_excluded_samples": transient,
             "constraints_active": chosen.constraints_active,
-            "identifiability": chosen.identifiability(),
+            "identifiability": {**chosen.identifiability(), "cycle_prediction_spread_sigma": spread},
             "comparison": {kind: res.errors for kind, res in results.items()},
             "record_artefacts": artefacts,
             "spec": args.out,
         }, indent=2))
     else:
-        print(format_table(chosen, results, data.source, args.out, transient, artefacts))
+        print(format_table(chosen, results, data.source, args.out, transient, artefacts, spread))
     return 0
 
 
@@ -181,7 +183,7 @@ def _require_that_the_displacement_follows(chosen, data) -> None:
                         "columns (--voltage-column, --displacement-column) and the sensor")
 
 
-def format_table(chosen, results, source, out, transient: int = 0, artefacts=()) -> str:
+def format_table(chosen, results, source, out, transient: int = 0, artefacts=(), spread: float = None) -> str:
     m = chosen.model
     lines = [f"{m.kind.upper()} model of {source}: {m.n_operators} {m.operator} operators, "
              f"fit on samples {chosen.fit_slice.start}..{chosen.fit_slice.stop - 1} "
@@ -206,6 +208,15 @@ def format_table(chosen, results, source, out, transient: int = 0, artefacts=())
                      f"(travel {chosen.operator_travel_V[i]:.3g} V)"
                      + (f"; weight density tied to operator {tied + 1}" if tied is not None else "; weight 0"))
     lines += [f"  condition number of the fit: {chosen.condition_number:.3g}"]
+    if spread is not None:
+        from pysim.identification.determinacy import DETERMINED_SPREAD
+
+        lines += [f"  prediction of a full-range cycle with minor loops determined by this record to "
+                  f"{spread:.3g} noise σ"
+                  + ("" if spread <= DETERMINED_SPREAD else
+                     f" (above {DETERMINED_SPREAD:g}: the record does not decide how this model predicts a new "
+                     "input; fit fewer operators (--operators) or record an input that moves through the range "
+                     "(sines or triangles rather than steps))")]
     if artefacts:
         listed = [f"{a['kind']} at sample {a['sample']}"
                   + (f" ({a['size_um']:+.3g} µm)" if a["kind"] == "jump" else "") for a in artefacts]
