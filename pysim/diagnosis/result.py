@@ -8,6 +8,7 @@ import numpy as np
 
 from pysim.diagnosis.folds import Split
 from pysim.diagnosis.scoring import Evaluation
+from pysim.identification.determinacy import finer_fit_determined
 
 __all__ = ["Diagnosis"]
 
@@ -68,6 +69,12 @@ class Diagnosis:
     baseline, extended, richer : Evaluation
     candidates : dict
         Cause → Evaluation.
+    rate_independent_spreads : tuple or None
+        ``(baseline, richer)``: how far the record determines each
+        rate-independent model's prediction of a full-range cycle, in noise σ
+        (:func:`pysim.identification.determinacy.cycle_prediction_spread`);
+        the extensions are fitted on the richer operator set only where it is
+        determined.  None without a richer model.
     """
 
     cause: str
@@ -101,6 +108,7 @@ class Diagnosis:
     artefacts: list = field(default_factory=list)
     noise_free: bool = False
     general_model: dict = None
+    rate_independent_spreads: tuple = None
 
     @property
     def gain_pct(self) -> float:
@@ -180,6 +188,10 @@ class Diagnosis:
                         "rms_pct": self.richer.rms_pct, "max_pct": self.richer.max_pct,
                         "n_operators": self.richer.fit.model.n_operators,
                         "condition_number": self.richer.fit.result.condition_number},
+                    **({} if self.rate_independent_spreads is None else {
+                        "cycle_prediction_spread_sigma": dict(zip(("baseline", "richer"),
+                                                                  self.rate_independent_spreads)),
+                        "richer_determined": finer_fit_determined(*self.rate_independent_spreads)}),
                 },
                 "measured_gain_um_per_V": measured_gain,
                 "cross_validation_cause": self.cross_validation_cause,

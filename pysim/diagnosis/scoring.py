@@ -261,8 +261,13 @@ def candidates_on_either_base(fitter: CandidateFitter, run, baseline, richer, ca
     the lag on 20 operators 2.25).
     """
     chosen, other = (richer, baseline) if richer.mse_um2 < baseline.mse_um2 else (baseline, richer)
+    undetermined = other.fit is not chosen.fit and not fitter.richer_determined
+    if undetermined:
+        # the record does not decide how the richer model's hysteresis part predicts a new input:
+        # every extension is fitted on the baseline's, and no stage on the richer's
+        chosen, other = baseline, richer
     candidates = fit_candidates(fitter, run, chosen.fit.family, causes, creep_score)
-    if other.fit is chosen.fit:         # no richer model could be identified: it stands in as the baseline
+    if other.fit is chosen.fit or undetermined:     # no richer model identified, or none the record decides
         return candidates
     contest = [c for c, ev in candidates.items() if c in DYNAMICS and ev.mse_um2 < chosen.mse_um2]
     for cause, ev in fit_candidates(fitter, run, other.fit.family, contest, creep_score).items():
