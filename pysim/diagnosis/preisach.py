@@ -97,7 +97,7 @@ class JointFit:
         ``"none"`` or the catalogue's cause tried.
     parameter : float
         The effect's shape parameter (τ in s for ``rate_dependence``, the delay in s for
-        ``delay``); NaN otherwise.
+        ``delay``, the trend's degree for ``drift``); NaN otherwise.
     mse_sigma2 : tuple of float
         Each record's mean-square error over its usable samples, in its own noise variance.
     noise_um : tuple of float
@@ -382,6 +382,8 @@ class GeneralModelParts:
             if search not in self._crept:
                 self._crept[search] = self._creep(rows)
             return self._crept[search]
+        elif effect == "drift":
+            return self._drift(rows)
         elif effect in INPUT_EFFECTS:
             # the operators see the stage's output: their paths (and the rows they fix) change
             staged = [apply_input_stage(INPUT_EFFECTS[effect], parameter, v, T) for v, T in zip(self.v, self.T)]
@@ -430,6 +432,23 @@ class GeneralModelParts:
                 best = fit
         return best
 
+    def _drift(self, rows) -> JointFit:
+        """A smooth trend in time, as the catalogue admits drift: a polynomial of degree 1, or 2 when
+        that leaves at most four fifths of what the line leaves above the noise.  Two records were
+        taken at other times, so each has its own trend from its first sample (columns of that record
+        alone); a record's two halves share one trend over the whole record."""
+        def with_trend(degree):
+            designs = []
+            for r, (A, v) in enumerate(zip(self.A, self.v)):
+                time_share = np.arange(v.size) / max(v.size - 1, 1)
+                own = np.column_stack([time_share**k for k in range(1, degree + 1)])
+                blocks = [own if k == r else np.zeros_like(own) for k in range(len(self.v))]
+                designs.append(np.hstack([A] + blocks))
+            return self._on_rows(designs, rows, "drift", float(degree))
+
+        line, curve = with_trend(1), with_trend(2)
+        return curve if curve.excess_sigma2 <= 0.8 * line.excess_sigma2 else line
+
     def searched(self, effect, low, high) -> JointFit:
         """The effect with its shape parameter searched on a log grid, then refined."""
         grid = np.geomspace(low, high, 8)
@@ -456,6 +475,7 @@ class GeneralModelParts:
                 "rate_dependence": self.searched("rate_dependence", 0.05 * min(self.T), slowest_lag_s),
                 "delay": self.searched("delay", 0.1 * min(self.T), 10.0 * period),
                 "creep": self.fit("creep"),
+                "drift": self.fit("drift"),
                 "rate_dependent_hysteresis": self.searched("rate_dependent_hysteresis", 0.05 * min(self.T),
                                                            slowest_lag_s)}
         if fastest_V_per_s > 0:
