@@ -3,6 +3,7 @@ description of the machine the numbers were measured on."""
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import platform
 import shutil
@@ -128,6 +129,13 @@ def diagnose_and_score(row: dict, first, second, truth: str, third_rms_pct):
     base, ext = third_rms_pct(d.baseline.model), third_rms_pct(d.extended.model)
     row.update(third_baseline_rms_pct=base, third_extended_over_baseline=ext / base if base > 0 else float("nan"))
     return d
+
+
+def write_rows_json(path, rows) -> None:
+    """Save a benchmark's per-seed rows as JSON (``--json FILE``)."""
+    with open(path, "w", encoding="utf-8") as out:
+        json.dump(rows, out, indent=1, default=float)
+        out.write("\n")
 
 
 def named_and_outcome(diagnosis, truth: str) -> tuple:

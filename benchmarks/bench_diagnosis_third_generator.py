@@ -33,7 +33,6 @@ for seeds 0-59).  Progress goes to stderr.
 """
 from __future__ import annotations
 
-import json
 import sys
 import time
 import traceback
@@ -41,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_common import WITH_HISTORY_FLOOR, diagnose_options, over_seeds, seed_arguments
+from bench_common import WITH_HISTORY_FLOOR, diagnose_options, over_seeds, seed_arguments, write_rows_json
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 if str(TESTS) not in sys.path:
@@ -204,9 +203,7 @@ def main(argv=None) -> int:
     print(summary(rows))
     print(f"{time.perf_counter() - start:.0f} s in all")
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as out:
-            json.dump(rows, out, indent=1, default=float)
-            out.write("\n")
+        write_rows_json(args.json, rows)
     return 0
 
 
