@@ -113,3 +113,12 @@ def test_an_input_stage_the_record_does_not_determine_is_named_but_not_delivered
     assert d.extended.cause == "baseline" and "is not delivered" in d.why
     withheld = d.candidates["slew_limit"].fit.model
     assert _third_record_rms_pct(withheld, actuator) > 1.2 * _third_record_rms_pct(d.extended.model, actuator)
+
+
+def test_a_staircase_whose_fast_part_barely_overlaps_its_slow_part_is_diagnosed_not_refused():
+    """Seed 93's first record, a staircase after a history: its split of other character (trained on the
+    slowest blocks, scored on the fastest inside their range) scores a single sample.  That split is left
+    out rather than refusing the record with an error about a constant reference."""
+    actuator = _actuator(93)
+    d = diagnose(actuator["v1"], actuator["y1"], actuator["fs"])
+    assert d.cause in ("none", "creep") and not any(ev.character for ev in (d.baseline, d.richer))

@@ -144,7 +144,9 @@ def _evaluate(fitter, family, fit, folds, character, y, mask) -> Evaluation:
     ev.per_block_mse_um2 = per_block
     if character is not None:
         train, scored, _ = character
-        if scored.size:
+        # (a staircase may leave its fast part a sample or two inside the slow part's range: nothing to
+        # score in % of a range there)
+        if scored.size and np.ptp(y[scored]) > 0:
             try:
                 prediction = fitter.fit(family, train).prediction_um
             except IdentificationError:
