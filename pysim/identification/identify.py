@@ -642,6 +642,23 @@ def _merge_plan(thresholds, travel, span):
     return anchor, factor
 
 
+def _with_ties(thresholds, anchor, factor, tied) -> tuple:
+    """``(anchor, factor)`` of a merge plan with the operators of ``tied`` (operator → the operator
+    whose weight density it shares) tied as well, each to its partner's own anchor."""
+    r = np.asarray(thresholds, dtype=float)
+    spacing = np.diff(np.concatenate(([0.0], r)))
+    anchor, factor = anchor.copy(), factor.copy()
+    for i, partner in sorted((int(i), int(p)) for i, p in tied.items()):
+        if not (0 <= i < r.size and 0 <= partner < r.size) or anchor[i] != i or anchor[partner] < 0:
+            continue
+        target = anchor[partner]
+        ratio = factor[partner] * (spacing[i] / spacing[partner] if spacing[partner] > 0 else 1.0)
+        for k in range(r.size):                # i, and every operator tied to i, follow the partner
+            if anchor[k] == i:
+                anchor[k], factor[k] = target, factor[k] * ratio
+    return anchor, factor
+
+
 def require_rising(voltage_V, displacement_um, where: str = "") -> None:
     """Raise :class:`IdentificationError` when the displacement clearly falls as the voltage rises
     (correlation below -0.5: a sensor that counts the other way).
@@ -711,7 +728,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
              column_transform=None, initial_state=None, start_state=None, merge_unexcited: bool = True,
              fit_rows=None, lagging_extras=(),
              input_offset_V: float = None, require_excitation: bool = True, history_floor_V: float = None,
-             name: str = None, description: str = "") -> IdentificationResult:
+             tied_operators: dict = None, name: str = None, description: str = "") -> IdentificationResult:
     """Fit an MPI or CPI model to a measured record.
 
     Parameters
@@ -785,6 +802,10 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         only the rows fitted identify nothing (``fit_rows`` of a record that
         does), the model is to predict rows they do not excite, and it is
         ``a1 u³ + a2 u + offset``.
+    tied_operators : dict of int to int, optional
+        Operators (0-based) whose weight density is tied to another operator's from the start, as
+        a fit of the same record found them (``merged_into`` of its result): an input stage that
+        moves a sample or two of the record must not free a weight the record does not determine.
     history_floor_V : float, optional
         The lowest voltage the actuator was driven to before the record (V), e.g. 0 for a
         unipolar amplifier.  The estimated start state is then one that a history from the
@@ -850,6 +871,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         state0 = demagnetised
     travel, unexcited_message, anchor, factor, static_curve = _excitation_of_rows(
         v, rows, (first, stop), r, (low, high), hi - lo, merge_unexcited, require_excitation)
+    if tied_operators:
+        anchor, factor = _with_ties(r, anchor, factor, tied_operators)
     columns = _Columns(r, cubic, anchor, factor, extras)
 
     # Only the window's rows are fitted; the state matters only where an
