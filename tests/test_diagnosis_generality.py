@@ -672,13 +672,15 @@ def test_an_effect_that_only_two_large_steps_show_is_named_by_the_responses_to_t
 def test_an_extension_whose_hysteresis_part_misses_a_new_input_is_not_delivered_behind_a_shape_correction():
     """Truth (the independent generator's pair 503): a 40 V/ms slew limit, shown by two full-range
     steps of a first record of steps and sines after an unknown history; the second record is a
-    sine.  The slew limit is named by the responses to the steps, but its model, fitted with its
-    own hysteresis part on that record, predicts the sine far worse than the plain fit.  On the
-    second record the input's path predicts most of what every model leaves, and after that
-    correction -- itself a rate-independent fit of the sine -- the two models differ only in the
-    first samples, so the comparison saw no difference.  Compared as fitted, the plain fit is
-    delivered.  The judge is a third record, a decaying triangle given to neither: the model
-    delivered predicts it no worse than the plain fit (the slew limit's model: 2.2 times its RMS)."""
+    sine.  The slew limit is named by the responses to the steps.  On the second record the input's
+    path predicts most of what every model leaves, and after that correction -- itself a
+    rate-independent fit of the sine -- the two models differ only in the first samples, so the
+    comparison saw no difference; compared as fitted, the slew limit's model is not better there,
+    and the plain fit is delivered.  The judge is a third record, a decaying triangle given to
+    neither: the model delivered predicts it no worse than the plain fit.  The slew limit moves only
+    the samples of the two steps, so its fit keeps the operator ties of the record's own fit
+    (2026-12-05): its model, which had predicted the triangle 2.2 times worse than the plain fit with
+    weights those few samples decided, now predicts it within 1 % of it."""
     import independent_records
 
     pair = independent_records.make_pair(503)
@@ -688,10 +690,10 @@ def test_an_extension_whose_hysteresis_part_misses_a_new_input_is_not_delivered_
     assert d.validation.get("shape"), d.validation      # the correction that hid the difference
     assert d.validation["delivered"] == "baseline" and d.validation["withheld"] == "slew_limit", d.validation
     withheld = d.validation["withheld_sigma2"]
-    assert withheld["slew_limit"] > 2 * withheld["baseline"], withheld
+    assert withheld["slew_limit"] > withheld["baseline"], withheld
     plain = _third_record_rms(pair, d.baseline.model)
     assert _third_record_rms(pair, d.extended.model) <= plain * (1 + 1e-9)
-    assert _third_record_rms(pair, d.candidates["slew_limit"].fit.model) > 1.5 * plain
+    assert _third_record_rms(pair, d.candidates["slew_limit"].fit.model) < 1.01 * plain
 
 
 def test_a_resonance_near_nyquist_is_found_at_its_own_frequency_on_steps():

@@ -102,17 +102,14 @@ def test_stages_a_quiet_first_record_cannot_shape_are_told_apart_on_the_second()
     assert _third_record_rms_pct(d.extended.model, actuator) < _third_record_rms_pct(d.baseline.model, actuator)
 
 
-def test_an_input_stage_the_record_does_not_determine_is_named_but_not_delivered():
-    """Seed 58 given alone: a slew limit of 2.7 σ on a staircase from rest, named right.  Behind the stage
-    only each step's ramp of a few samples tells the operators apart (a cycle prediction spread of 0.8 σ
-    against the plain fit's 0.05), and the slew limit's model predicts the third record, sines the limit
-    never reaches, 1.37 times worse than the plain fit, which is delivered instead, with the reason."""
+def test_a_slew_limit_on_a_staircase_alone_keeps_the_records_ties_and_predicts_better():
+    """Seed 58 given alone: a slew limit of 2.7 σ on a staircase from rest.  Fitted with the operators the
+    record's own fit ties freed again by the stage's ramps, its model predicted the third record (sines the
+    limit never reaches) 1.37 times worse than the plain fit; with the record's ties it predicts it better."""
     actuator = _actuator(58)
     d = diagnose(actuator["v1"], actuator["y1"], actuator["fs"])
-    assert d.cause == "slew_limit"
-    assert d.extended.cause == "baseline" and "is not delivered" in d.why
-    withheld = d.candidates["slew_limit"].fit.model
-    assert _third_record_rms_pct(withheld, actuator) > 1.2 * _third_record_rms_pct(d.extended.model, actuator)
+    assert d.cause == "slew_limit" and d.extended.cause == "slew_limit"
+    assert _third_record_rms_pct(d.extended.model, actuator) < _third_record_rms_pct(d.baseline.model, actuator)
 
 
 def test_a_staircase_whose_fast_part_barely_overlaps_its_slow_part_is_diagnosed_not_refused():
@@ -122,3 +119,19 @@ def test_a_staircase_whose_fast_part_barely_overlaps_its_slow_part_is_diagnosed_
     actuator = _actuator(93)
     d = diagnose(actuator["v1"], actuator["y1"], actuator["fs"])
     assert d.cause in ("none", "creep") and not any(ev.character for ev in (d.baseline, d.richer))
+
+
+def test_an_input_stage_that_moves_one_sample_frees_no_operator_the_record_ties():
+    """Seed 112: a slew limit of 0.9 σ on steps and sines, named by its steps; the limit found moves one
+    sample of the record.  That sample had let three operators the record's own fit ties take weights of
+    -0.19, +0.41 and -0.20 µm/V, and the model delivered predicted the third record 33 times worse than the
+    plain fit.  With the record's ties kept, nothing delivered predicts the third record worse than the
+    plain fit by more than 5 %."""
+    actuator = _actuator(112)
+    fs = actuator["fs"]
+    d = diagnose(actuator["v1"], actuator["y1"], fs, validate=(actuator["v2"], actuator["y2"], fs))
+    assert "slew_limit" in d.causes
+    plain, delivered = (_third_record_rms_pct(m, actuator) for m in (d.baseline.model, d.extended.model))
+    assert delivered <= 1.05 * plain
+    weights = np.asarray(d.candidates["slew_limit"].fit.model.hysteresis.weights_um_per_V)
+    assert np.max(np.abs(weights)) < 0.1

@@ -558,3 +558,21 @@ def test_a_history_floor_above_the_records_lowest_voltage_is_refused():
         identify(v, y, history_floor_V=5.0)
     with pytest.raises(IdentificationError, match="finite"):
         identify(v, y, history_floor_V=float("nan"))
+
+
+def test_tied_operators_share_their_partners_weight_density():
+    """Operators given as tied keep the density (weight over threshold spacing) of the operator they
+    are tied to, are reported as merged, and the fit, of a smaller model, leaves no less error than the
+    free one."""
+    truth = scaled_paper_model()
+    v = exciting_input(8001)
+    y = truth.simulate(v) + np.random.default_rng(5).normal(0.0, 0.02, v.size)
+    free = identify(v, y, n_operators=10)
+    tied = identify(v, y, n_operators=10, tied_operators={4: 3, 5: 3})
+    r = np.asarray(tied.model.thresholds_V)
+    spacing = np.diff(np.concatenate(([0.0], r)))
+    density = np.asarray(tied.model.weights_um_per_V) / spacing
+    assert density[4] == pytest.approx(density[3], rel=1e-12) and density[5] == pytest.approx(density[3], rel=1e-12)
+    assert tied.merged_into[4] == 3 and tied.merged_into[5] == 3
+    assert set(tied.not_identifiable_operators) >= {4, 5}
+    assert free.objective <= tied.objective * (1 + 1e-12)

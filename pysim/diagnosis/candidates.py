@@ -97,6 +97,9 @@ from pysim.identification.identify import (
 )
 
 EFFECTS = ("rate_dependence", "creep", "delay", "drift", "rate_dependent_hysteresis", "slew_limit")
+#: Share of a record's samples below which an input stage counts as moving only a few of them (it then
+#: keeps the ties of the record's rate-independent fit: :meth:`CandidateFitter._record_ties`).
+FEW_MOVED_SHARE = 0.01
 #: Most rows the shape searches use (the last ones of the record).
 SEARCH_SAMPLES = 40000
 #: A second-order stage's free ringing (decay time 1/(ζω)) lasts at most this share of the record.
@@ -703,13 +706,18 @@ class CandidateFitter:
                     lagging_extras=family.lagging, require_excitation=False, tied_operators=self._record_ties(family))
 
     def _record_ties(self, family: Family):
-        """Behind an input stage, the operators this record's rate-independent fit with as many operators
-        tied (``merged_into``), to be tied again; None otherwise.  What the record determines is the
-        record's: a stage that moves a sample or two of it (a slew limit that bites on one step) must not
-        free weights it does not (fourth-generator seed 112: one sample moved by 24 V let three operators
-        the fit had tied take weights of -0.19, +0.41 and -0.20 µm/V, and the slew limit's model predicted
-        a third record 33 times worse than the plain fit)."""
+        """Behind an input stage that moves only a few samples of the record (fewer than
+        ``FEW_MOVED_SHARE`` of them), the operators this record's rate-independent fit with as many
+        operators tied (``merged_into``), to be tied again; None otherwise.  What the record determines
+        is the record's: a stage that moves a sample or two of it (a slew limit that bites on one step)
+        must not free weights it does not (fourth-generator seed 112: one sample moved by 24 V let three
+        operators the fit had tied take weights of -0.19, +0.41 and -0.20 µm/V, and the slew limit's model
+        predicted a third record 33 times worse than the plain fit).  A stage that moves most samples (a
+        low-pass on a moving input) changes what every operator sees, and its fit finds its own ties."""
         if family.input_stage is None:
+            return None
+        moved = np.abs(self.operator_input(family) - self.v) > 1e-9 * max(float(np.ptp(self.v)), 1e-300)
+        if np.count_nonzero(moved) >= FEW_MOVED_SHARE * self.v.size:
             return None
         for result in (self.baseline_result, self.richer_result):
             if result is not None and result.model.n_operators == family.n_operators:
