@@ -340,17 +340,6 @@ class CandidateFitter:
         spreads = self.rate_independent_spreads
         return spreads is None or finer_fit_determined(*spreads)
 
-    def hysteresis_spread(self, fit: CandidateFit) -> float:
-        """How far the record determines ``fit``'s hysteresis part's prediction of a full-range cycle, in
-        noise σ (:func:`~pysim.identification.determinacy.cycle_prediction_spread` of its linear fit, on
-        the input its operators saw: behind an input stage, that stage's output)."""
-        if fit.result is None:
-            return math.inf
-        seen = self.v
-        if isinstance(fit.model, InputStageModel):
-            seen = apply_input_stage(fit.model.kind, fit.model.parameter, self.v, fit.model.sample_period_s)
-        return cycle_prediction_spread(fit.result, seen)
-
     @functools.cached_property
     def rate_independent_spreads(self):
         """``(baseline, richer)``: how far the record determines each rate-independent model's prediction

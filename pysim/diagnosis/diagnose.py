@@ -144,7 +144,6 @@ from pysim.diagnosis.folds import (CREEP_HOLD_S, DEFAULT_TRAIN_FRACTION, WIDER_R
                                    make_folds, range_beyond_first, split_record)
 from pysim.diagnosis.holds import (contradicted_by_holds, contradicted_sentence, preferred_by_holds, still_holds,
                                    still_sentence, voting_holds)
-from pysim.diagnosis.input_stages import InputStageModel
 from pysim.diagnosis.path_memory import path_memory
 from pysim.diagnosis.preisach import GeneralModelParts, verdict_on_both_records
 from pysim.diagnosis.residuals import (NOISE_FREE_FRACTION, VALIDATED_NOISE_FRACTION, models_noise_sigma,
@@ -167,7 +166,6 @@ from pysim.diagnosis.steps import shown_by_steps
 from pysim.diagnosis.validation import score_on_record
 from pysim.identification.data import (checked_sample_rate, common_sample_rate, resample_record,
                                        resampling_stride)
-from pysim.identification.determinacy import finer_fit_determined
 from pysim.identification.errors import DataError
 from pysim.identification.identify import (IdentificationError, checked_history_floor, identify, require_rising,
                                             settling_samples, start_transient)
@@ -1313,7 +1311,6 @@ class _DiagnosisRun:
                            validation=baseline.validation)
         extended = self._named_model(plain)
         extended = self._with_creep_modes_of_general_model(extended, plain)
-        extended = self._withheld_if_undetermined(extended, plain)
         extended = self._withheld_if_second_record_worse(extended, plain)
         self.extended = self._refitted_on_both_records(extended, plain)
 
@@ -1379,27 +1376,6 @@ class _DiagnosisRun:
                     validation.update(delivered_creep_modes="general model on both records",
                                       note=f"{validation['note']}; {self.modes_sentence}")
         return extended
-
-    def _withheld_if_undetermined(self, extended: Evaluation, plain: Evaluation) -> Evaluation:
-        """Without a second record, the plain fit instead of an input stage's model whose hysteresis part
-        the record determines far less than the plain fit's."""
-        self.undetermined_sentence = ""
-        if self.validation is not None or extended is plain or not isinstance(extended.fit.model, InputStageModel):
-            return extended
-        # behind an input stage every operator sees the stage's output: on steps, a slew limit's ramps of a
-        # few samples each are all that tells the operators apart, and the weights they decide carry badly
-        # to another input (fourth-generator seed 39, a slew limit named right on a staircase alone: its
-        # model predicted the third record 2.95 times worse than the plain fit, with a cycle prediction
-        # spread of 6.6 σ against the plain fit's 1.2); nothing else tests it without a second record
-        own, reference = self.fitter.hysteresis_spread(extended.fit), self.fitter.hysteresis_spread(plain.fit)
-        if finer_fit_determined(reference, own):
-            return extended
-        self.undetermined_sentence = (
-            f"{extended.cause}'s model is not delivered: behind its stage the record determines the hysteresis "
-            f"part's prediction of a full-range cycle only to {own:.2g} noise σ (the plain fit's to {reference:.2g}), "
-            "so it may carry to a new input worse than the plain fit, which is delivered; give a second record "
-            "(`--validate`) to test it")
-        return plain
 
     def _withheld_if_second_record_worse(self, extended: Evaluation, plain: Evaluation) -> Evaluation:
         """The plain fit instead of an extension that predicts the second record worse than it."""
@@ -1480,7 +1456,7 @@ class _DiagnosisRun:
             why += f". {self.modes_sentence[0].upper()}{self.modes_sentence[1:]}"
         if self.withheld_sentence:
             why += f". {self.withheld_sentence}"      # it starts with a cause's name, written as the code spells it
-        for sentence in (self.unexplained_sentence, self.undetermined_sentence, self.both_sentence):
+        for sentence in (self.unexplained_sentence, self.both_sentence):
             if sentence:
                 why += f". {sentence[0].upper()}{sentence[1:]}"
         for which, found in self.shape.items():
