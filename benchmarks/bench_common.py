@@ -88,6 +88,25 @@ def over_seeds(evaluate, first_seed: int, count: int, describe) -> list:
     return rows
 
 
+def run_seed_benchmark(doc: str, default_records: int, evaluate, describe, report, argv=None) -> int:
+    """The main of a benchmark that runs one record set per seed: parse :func:`seed_arguments` (plus
+    ``--json FILE``) from ``argv``, run ``evaluate(seed, second_record)`` over the seeds
+    (:func:`over_seeds`, ``describe(row)`` as each ends), then ``report(rows)``, the time taken, and the
+    rows as JSON if asked; returns the exit code (0)."""
+    parser = seed_arguments(doc.split("\n\n")[0], default_records)
+    parser.add_argument("--json", metavar="FILE", help="also save the per-seed results as JSON")
+    args = parser.parse_args(argv)
+    WITH_HISTORY_FLOOR["on"] = args.history_floor
+    start = time.perf_counter()
+    rows = over_seeds(lambda seed: evaluate(seed, not args.first_record_only), args.first_seed, args.records,
+                      describe)
+    report(rows)
+    print(f"{time.perf_counter() - start:.0f} s in all")
+    if args.json:
+        write_rows_json(args.json, rows)
+    return 0
+
+
 def print_outcome_summary(rows, effects) -> None:
     """Print the outcome count of every effect in ``effects`` and one line of totals: right, false
     alarms, refusals, and on how many effect records the model delivered predicts the third record

@@ -25,13 +25,11 @@ from __future__ import annotations
 
 import json
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
-from bench_common import (WITH_HISTORY_FLOOR, diagnose_and_score, over_seeds, print_outcome_summary, seed_arguments,
-                          write_rows_json)
+from bench_common import diagnose_and_score, print_outcome_summary, run_seed_benchmark
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 if str(TESTS) not in sys.path:
@@ -85,20 +83,15 @@ def print_rows(rows) -> None:
             print(f"  seed {r['seed']} ({r['effect']}, {r['outcome']}): {r.get('why', r.get('message', ''))[:400]!r}")
 
 
-def main(argv=None) -> int:
-    parser = seed_arguments(__doc__.split("\n\n")[0], 40)
-    parser.add_argument("--json", metavar="FILE", help="also save the per-seed results as JSON")
-    args = parser.parse_args(argv)
-    WITH_HISTORY_FLOOR["on"] = args.history_floor
-    start = time.perf_counter()
-    rows = over_seeds(lambda seed: evaluate(seed, not args.first_record_only), args.first_seed, args.records,
-                      lambda row: f"{row['effect']} -> {row['named']} ({row['outcome']}), {row['seconds']:.1f} s")
+def _report(rows) -> None:
     print_rows(rows)
     print_outcome_summary(rows, records.EFFECTS)
-    print(f"{time.perf_counter() - start:.0f} s in all")
-    if args.json:
-        write_rows_json(args.json, rows)
-    return 0
+
+
+def main(argv=None) -> int:
+    return run_seed_benchmark(__doc__, 40, evaluate,
+                              lambda row: f"{row['effect']} -> {row['named']} ({row['outcome']}), {row['seconds']:.1f} s",
+                              _report, argv)
 
 
 if __name__ == "__main__":

@@ -30,8 +30,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from bench_common import (WITH_HISTORY_FLOOR, diagnose_and_score, over_seeds, print_outcome_summary, seed_arguments,
-                          settled_rms_pct)
+from bench_common import diagnose_and_score, print_outcome_summary, run_seed_benchmark, settled_rms_pct
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 if str(TESTS) not in sys.path:
@@ -61,12 +60,7 @@ def evaluate(seed: int, second_record: bool = True) -> dict:
     return row
 
 
-def main(argv=None) -> int:
-    args = seed_arguments(__doc__.split("\n\n")[0], 24).parse_args(argv)
-    WITH_HISTORY_FLOOR["on"] = args.history_floor
-    rows = over_seeds(lambda seed: evaluate(seed, not args.first_record_only), args.first_seed, args.records,
-                      lambda row: f"{row['plant']} {row['effect']} -> {row['named']} ({row['outcome']}), "
-                                  f"{row['seconds']:.1f} s")
+def _report(rows) -> None:
     print(f"{'seed':>4} {'plant':9} {'effect':6} {'inputs (1st/2nd/3rd)':34} {'named':34} {'outcome':12} "
           f"{'shape':13} {'3rd base %':>10} {'3rd e/b':>7}")
     for r in rows:
@@ -74,7 +68,13 @@ def main(argv=None) -> int:
               f"{','.join(r.get('shape_corrected', [])) or '-':13} {r.get('third_baseline_rms_pct', float('nan')):10.3f} "
               f"{r.get('third_extended_over_baseline', float('nan')):7.3f}")
     print_outcome_summary(rows, records.EFFECTS)
-    return 0
+
+
+def main(argv=None) -> int:
+    return run_seed_benchmark(__doc__, 24, evaluate,
+                              lambda row: f"{row['plant']} {row['effect']} -> {row['named']} ({row['outcome']}), "
+                                          f"{row['seconds']:.1f} s",
+                              _report, argv)
 
 
 if __name__ == "__main__":

@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_common import WITH_HISTORY_FLOOR, diagnose_options, over_seeds, seed_arguments, write_rows_json
+from bench_common import diagnose_options, run_seed_benchmark
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 if str(TESTS) not in sys.path:
@@ -190,21 +190,16 @@ def summary(rows) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
-    parser = seed_arguments(__doc__.split("\n\n")[0], 60)
-    parser.add_argument("--json", metavar="FILE", help="also save the per-seed results as JSON")
-    args = parser.parse_args(argv)
-    WITH_HISTORY_FLOOR["on"] = args.history_floor
-    start = time.perf_counter()
-    rows = over_seeds(lambda seed: evaluate(seed, not args.first_record_only), args.first_seed, args.records,
-                      lambda row: f"{row['truth']} -> {row['cause']} ({row['outcome']}), {row['seconds']:.1f} s")
+def _report(rows) -> None:
     print_table(rows)
     print()
     print(summary(rows))
-    print(f"{time.perf_counter() - start:.0f} s in all")
-    if args.json:
-        write_rows_json(args.json, rows)
-    return 0
+
+
+def main(argv=None) -> int:
+    return run_seed_benchmark(__doc__, 60, evaluate,
+                              lambda row: f"{row['truth']} -> {row['cause']} ({row['outcome']}), {row['seconds']:.1f} s",
+                              _report, argv)
 
 
 if __name__ == "__main__":
