@@ -149,3 +149,18 @@ def test_a_slew_limit_named_on_a_staircase_alone_is_delivered_when_it_predicts_b
     assert d.extended.model is not d.baseline.model
     plain, delivered = (_third_record_rms_pct(m, actuator) for m in (d.baseline.model, d.extended.model))
     assert delivered < 0.7 * plain
+
+
+def test_a_second_record_the_effect_cannot_touch_does_not_leave_it_unexplained():
+    """Seed 95: a slew limit of 2.5 σ on a staircase after a history, a slow triangle from rest as the
+    second record (which never slews that fast).  The first record's hysteresis part misses the
+    second's paths, and the general model on both records decides: the slew limit takes both records to
+    their noise, the second from 0.96 σ² to a hair above, as no effect can lower a record already at
+    its noise.  The verdict had been `unexplained`; now the slew limit is named, and its model predicts
+    the third record better than the plain fit."""
+    actuator = _actuator(95)
+    fs = actuator["fs"]
+    d = diagnose(actuator["v1"], actuator["y1"], fs, validate=(actuator["v2"], actuator["y2"], fs))
+    assert "slew_limit" in d.causes and d.validation["verdict_by"] == "general model on both records", d.why
+    plain, delivered = (_third_record_rms_pct(m, actuator) for m in (d.baseline.model, d.extended.model))
+    assert delivered < 0.7 * plain

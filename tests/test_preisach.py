@@ -200,3 +200,25 @@ def test_a_lag_is_not_taken_for_creep(inputs):
                                    v2, _noisy(_actuator(v2, 20e-3), 14), 1 / RATE_HZ)
     said = verdict_on_both_records(fits)
     assert said["cause"] == "rate_dependence" and "creep" not in said["causes"], said["sentence"]
+
+
+def test_an_effect_is_named_when_a_record_it_cannot_touch_stays_at_its_noise():
+    """Two records, the first far above its noise without an effect and brought to it with one, the
+    second already at its noise (its input never excites the effect): that the effect leaves the
+    second a hair above where the model alone left it is chance, not a trade, and the effect is named.
+    A record above its noise that the effect makes worse still vetoes it."""
+    from pysim.diagnosis.preisach import JointFit
+
+    def fit(effect, *mse):
+        return JointFit(effect, float("nan"), mse, (0.1, 0.1), (1000, 1000))
+
+    untouched = {"none": fit("none", 7.9, 0.96), "slew_limit": fit("slew_limit", 1.0, 0.97),
+                 "creep": fit("creep", 6.0, 0.95)}
+    said = verdict_on_both_records(untouched)
+    assert said["cause"] == "slew_limit" and said["causes"] == ("slew_limit",), said["sentence"]
+    traded = {**untouched, "none": fit("none", 7.9, 1.3), "slew_limit": fit("slew_limit", 1.0, 1.31)}
+    assert verdict_on_both_records(traded)["cause"] is None
+    # within the noise margin on both sides is still a record at its noise
+    edge = 1.0 + NOISE_FRACTION
+    at_edge = {**untouched, "none": fit("none", 7.9, edge), "slew_limit": fit("slew_limit", 1.0, edge)}
+    assert verdict_on_both_records(at_edge)["cause"] == "slew_limit"
