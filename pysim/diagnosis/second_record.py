@@ -395,10 +395,17 @@ def _when_second_record_quiet(s: _SecondRecordScores, verdict: dict, standing: s
                     f"record's error by {NOISE_FRACTION} σ² or more")
         return verdict, standing, "second record"
     # a member of a tied set that the second record contradicts leaves the set, the rest stands
-    standing = (f"; the second record leaves only {s.excess2 / noise2**2:.2g} σ² above its "
-                f"noise for any effect to explain (it cannot confirm one) and "
-                f"{', '.join(kept)} {'does' if len(kept) == 1 else 'do'} not raise its error: the "
-                "cross-validated verdict stands"
+    return _cross_validated_stands(cv_verdict, kept, contradicted,
+                                   f"the second record leaves only {s.excess2 / noise2**2:.2g} σ² above its "
+                                   "noise for any effect to explain (it cannot confirm one)")
+
+
+def _cross_validated_stands(cv_verdict: dict, kept, contradicted, why_not_confirmed: str) -> tuple:
+    """``(verdict, standing, by)``: the cross-validated verdict, without the causes the second record
+    ``contradicted`` (those of ``kept`` remain), stands; ``why_not_confirmed`` says why that record
+    could not confirm it."""
+    standing = (f"; {why_not_confirmed} and {', '.join(kept)} {'does' if len(kept) == 1 else 'do'} not raise its "
+                "error: the cross-validated verdict stands"
                 + (f" without {', '.join(contradicted)}, which raise{'s' if len(contradicted) == 1 else ''} it "
                    f"by {NOISE_FRACTION} σ² or more" if contradicted else ""))
     return dict(cv_verdict, cause=kept[0], causes=tuple(kept)), standing, "cross-validation"
@@ -436,13 +443,10 @@ def _when_effect_not_excited(s: _SecondRecordScores, verdict: dict, standing: st
     kept, contradicted = _not_contradicted(cv_verdict, s.mse, s.ref_val, s.noise2, s.raised())
     if not kept:
         return verdict, standing, "second record"
-    standing = (f"; the second record's input does not excite {cv_verdict['cause']} (what it adds to its "
-                f"model there is {reach:.2g} σ RMS), so that record can neither confirm nor refute it, and "
-                f"{', '.join(kept)} {'does' if len(kept) == 1 else 'do'} not raise its error: the "
-                "cross-validated verdict stands"
-                + (f" without {', '.join(contradicted)}, which raise{'s' if len(contradicted) == 1 else ''} it "
-                   f"by {NOISE_FRACTION} σ² or more" if contradicted else ""))
-    return dict(cv_verdict, cause=kept[0], causes=tuple(kept)), standing, "cross-validation"
+    return _cross_validated_stands(cv_verdict, kept, contradicted,
+                                   f"the second record's input does not excite {cv_verdict['cause']} (what it "
+                                   f"adds to its model there is {reach:.2g} σ RMS), so that record can neither "
+                                   "confirm nor refute it,")
 
 
 def _with_shape(shape: dict, validation: dict, verdict: dict) -> tuple:
