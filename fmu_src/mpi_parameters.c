@@ -257,6 +257,7 @@ static const LayoutEntry layout[] = {
     LAYOUT_FIELD(OutputStages, creep_weights),
     LAYOUT_FIELD(OutputStages, n_drift),
     LAYOUT_FIELD(OutputStages, drift),
+    LAYOUT_FIELD(OutputStages, drift_span),
     LAYOUT_STRUCT(MpiInvertibility),
     LAYOUT_FIELD(MpiInvertibility, invertible),
     LAYOUT_FIELD(MpiInvertibility, descending),

@@ -42,6 +42,9 @@ OSTAGE_API int ostage_check(const OutputStages *s)
     if (!(s->delay_fraction >= 0.0 && s->delay_fraction < 1.0)) {
         return OSTAGE_BAD_FRACTION;
     }
+    if (!(finite(s->drift_span) && s->drift_span >= 0.0)) {
+        return OSTAGE_BAD_SPAN;
+    }
     if (!all_finite(s->sections, 5 * (size_t)s->n_sections)
         || !all_finite(s->creep_alpha, (size_t)s->n_creep)
         || !all_finite(s->creep_beta, (size_t)s->n_creep)
@@ -78,6 +81,8 @@ OSTAGE_API const char *ostage_message(int status)
         return "a coefficient is NaN or infinite";
     case OSTAGE_NO_EQUILIBRIUM:
         return "a section or creep mode has a pole at z = 1 (no rest state)";
+    case OSTAGE_BAD_SPAN:
+        return "the drift span must be a finite number of seconds >= 0";
     default:
         return "unknown output-stage status";
     }
@@ -194,11 +199,12 @@ OSTAGE_API double ostage_step(const OutputStages *s, const double *state, double
         y += creep;
     }
     if (s->n_drift > 0) {
+        const double td = (s->drift_span > 0.0 && t > s->drift_span) ? s->drift_span : t;
         double p = 0.0;
         for (int j = s->n_drift - 1; j >= 0; j--) {
-            p = p * t + s->drift[j];
+            p = p * td + s->drift[j];
         }
-        y += p * t;
+        y += p * td;
     }
     return y;
 }

@@ -51,7 +51,8 @@ enum {
     OSTAGE_NULL_ARRAY = 2,       /* a count > 0 with a NULL coefficient array */
     OSTAGE_BAD_FRACTION = 3,     /* delay fraction outside [0, 1) */
     OSTAGE_NOT_FINITE = 4,       /* a coefficient is NaN or infinite */
-    OSTAGE_NO_EQUILIBRIUM = 5    /* a section or creep mode has a pole at z = 1 */
+    OSTAGE_NO_EQUILIBRIUM = 5,   /* a section or creep mode has a pole at z = 1 */
+    OSTAGE_BAD_SPAN = 6          /* drift span negative, NaN or infinite */
 };
 
 typedef struct {
@@ -65,6 +66,10 @@ typedef struct {
     const double *creep_weights; /* w_j, um/V */
     int n_drift;                 /* drift polynomial degree, >= 0 */
     const double *drift;         /* p_1 .. p_n, um/s^j */
+    double drift_span;           /* s, >= 0: from t = drift_span on the drift holds
+                                  * the value it has there (the end of the record it
+                                  * was identified on; a polynomial says nothing
+                                  * beyond); 0: it runs on */
 } OutputStages;
 
 /* OSTAGE_OK, or the first problem found (see the enum). */

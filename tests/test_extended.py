@@ -196,6 +196,18 @@ def test_creep_and_drift_match_independent_formulas(rng):
     np.testing.assert_allclose(y, expected, atol=1e-10)
 
 
+def test_drift_holds_its_value_from_its_span_on():
+    """Past ``drift_span_s`` the polynomial is evaluated at the span: continuous, then constant."""
+    drift, span = [0.3, -0.02], 0.0123
+    t = np.arange(40) * T
+    h = np.cos(np.arange(40) / 7.0)
+    y, _ = OutputStages(drift=drift, drift_span_s=span).run(h, None, t)
+    expected = h + np.polyval([drift[1], drift[0], 0.0], np.minimum(t, span))
+    np.testing.assert_allclose(y, expected, atol=1e-15)
+    unbounded, _ = OutputStages(drift=drift).run(h, None, t)
+    np.testing.assert_allclose(unbounded, h + np.polyval([drift[1], drift[0], 0.0], t), atol=1e-15)
+
+
 def _full_stages():
     modes = [tustin_creep_mode(tau, T) for tau in (0.02, 0.5)]
     return OutputStages([second_order_section(30.0, 0.3, T)], 3.5, [m[0] for m in modes],
@@ -250,6 +262,9 @@ def test_c_check_refuses_bad_struct_without_crashing():
     np.testing.assert_array_equal(y, h)                    # passes the input through, no crash
     fraction = OutputStagesStruct(0, None, 1, 1.0, 0, None, None, None, 0, None)
     assert b"fraction" in lib.ostage_message(lib.ostage_check(ctypes.byref(fraction)))
+    for span in (-1.0, float("nan"), float("inf")):
+        bad_span = OutputStagesStruct(0, None, 0, 0.0, 0, None, None, None, 0, None, span)
+        assert b"drift span" in lib.ostage_message(lib.ostage_check(ctypes.byref(bad_span)))
 
 
 # ------------------------------------------------------------------ model
@@ -257,7 +272,7 @@ def test_c_check_refuses_bad_struct_without_crashing():
 def _model():
     return _extended(paper_model(voltage_range=(0.0, 1.0)), sample_period_s=T, resonance_hz=20.0,
                      damping_ratio=0.2, delay_samples=2.0, creep_time_constants_s=(0.05, 0.5),
-                     creep_weights_um_per_V=(0.1, 0.2), drift_coefficients=(0.01, -0.001))
+                     creep_weights_um_per_V=(0.1, 0.2), drift_coefficients=(0.01, -0.001), drift_span_s=0.75)
 
 
 def test_model_is_hysteresis_followed_by_independent_stages():
@@ -268,7 +283,7 @@ def test_model_is_hysteresis_followed_by_independent_stages():
     b, a = _section_tf(second_order_section(20.0, 0.2, T))
     g, _ = scipy.signal.lfilter(b, a, h, zi=scipy.signal.lfilter_zi(b, a) * h[0])
     expected = np.concatenate((np.full(2, g[0]), g[:-2]))
-    t = np.arange(v.size) * T
+    t = np.minimum(np.arange(v.size) * T, 0.75)           # the drift held from its span on
     expected += 0.01 * t - 0.001 * t**2
     for tau, w in ((0.05, 0.1), (0.5, 0.2)):
         bb, aa = scipy.signal.bilinear([1.0], [tau, 1.0], fs=1.0 / T)
@@ -310,6 +325,7 @@ def test_static_gain_includes_creep():
     ({"creep_time_constants_s": (0.1,), "creep_weights_um_per_V": (), "sample_period_s": T}, "creep"),
     ({"resonance_hz": 10.0, "damping_ratio": 0.0, "sample_period_s": T}, "damping_ratio"),
     ({"drift_coefficients": (float("nan"),), "sample_period_s": T}, "finite"),
+    ({"drift_coefficients": (0.1,), "drift_span_s": -1.0, "sample_period_s": T}, "drift_span_s"),
 ])
 def test_invalid_extended_model_is_refused(changes, message):
     with pytest.raises(ValueError, match=message):
@@ -330,7 +346,7 @@ def test_stage_parameters_are_what_the_c_stages_run():
     p = model.stages.coefficients()
     assert p["delay_whole"] == 2 and p["delay_fraction"] == 0.0
     rebuilt = OutputStages(p["sections"], p["delay_whole"] + p["delay_fraction"], p["creep_alpha"],
-                           p["creep_beta"], p["creep_weights"], p["drift"])
+                           p["creep_beta"], p["creep_weights"], p["drift"], p["drift_span_s"])
     v = paper_input(1001, 2.0)
     h = model.hysteresis.simulate(v)
     y, _ = rebuilt.run(h, v - model.hysteresis.input_offset_V, np.arange(v.size) * T)

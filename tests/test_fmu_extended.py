@@ -35,7 +35,7 @@ STAGES = {
     "second_order": dict(resonance_hz=120.0, damping_ratio=0.05),
     "delay": dict(delay_samples=3.4),
     "creep": dict(creep_time_constants_s=(0.01, 0.1), creep_weights_um_per_V=(0.02, 0.04)),
-    "drift": dict(drift_coefficients=(0.5, -0.2)),
+    "drift": dict(drift_coefficients=(0.5, -0.2), drift_span_s=0.5),     # held over the last 0.3 s
     "displacement_creep": dict(displacement_creep_time_constants_s=(0.002, 0.02, 0.2),
                                displacement_creep_shares=(0.04, 0.05, 0.06)),
     "combination": dict(lag_time_constant_s=1e-3, resonance_hz=300.0, damping_ratio=0.2, delay_samples=2.0,
@@ -117,7 +117,7 @@ def test_plant_fmu_stages_match_independent_implementations(kind):
     written from its definition (a lag and a resonance: scipy's simulation of
     the continuous stage with the input linear between samples; creep modes:
     scipy's bilinear transform; delay: a shift with linear interpolation;
-    drift: the polynomial in t = k T)."""
+    drift: the polynomial in t = k T, held from its span on)."""
     v = record(seed=7)
     y = cosimulate(fmus(kind)["plant"], v)
     h = BASE.simulate(v)
@@ -145,8 +145,17 @@ def test_plant_fmu_stages_match_independent_implementations(kind):
         for tau, share in zip(p["displacement_creep_time_constants_s"], shares):
             expected += share * _bilinear_rest(*scipy.signal.bilinear([1.0], [tau, 1.0], fs=1 / T), h)
     else:
-        expected = h + sum(c * t ** (j + 1) for j, c in enumerate(p["drift_coefficients"]))
+        held = np.minimum(t, p["drift_span_s"])
+        expected = h + sum(c * held ** (j + 1) for j, c in enumerate(p["drift_coefficients"]))
     assert np.max(np.abs(y - expected)) <= 1e-9 * np.ptp(h)
+
+
+def test_the_drift_span_is_a_visible_constant():
+    """A drift held from its span on shows the span (s) among the read-only constants."""
+    md = RawFMU(fmus("drift")["plant"]).description
+    span = [v for v in md.modelVariables if v.name == "drift_span"]
+    assert len(span) == 1 and span[0].causality == "local" and span[0].variability == "constant"
+    assert float(span[0].start) == STAGES["drift"]["drift_span_s"] and span[0].unit == "s"
 
 
 def test_fmpy_simulate_fmu_drives_the_fixed_step_plant():

@@ -52,6 +52,7 @@ static fmi2Status prepare_stages(Instance *inst)
 #else
     s->drift = NULL;
 #endif
+    s->drift_span = MODEL_DRIFT_SPAN;
     const int status = ostage_check(s);
     if (status != OSTAGE_OK) {
         layer_log(inst, fmi2Error, LAYER_LOG_ERROR, "invalid output stages: %s", ostage_message(status));

@@ -21,7 +21,11 @@ actuators show beyond that (see :mod:`pysim.diagnosis.diagnose`)::
   input ``u = v - input_offset_V`` (V) with weights ``w_j`` in µm/V
   (``creep_time_constants_s``, ``creep_weights_um_per_V``);
 - drift: a polynomial in the time ``t`` (s) since the start of the run,
-  ``drift_coefficients`` = ``(p_1, p_2, ...)`` in µm/s^j.
+  ``drift_coefficients`` = ``(p_1, p_2, ...)`` in µm/s^j; from
+  ``t = drift_span_s`` on (when > 0) it holds the value it has there.  A
+  polynomial fitted to a record says nothing about the time after it, and run
+  on past it a trend grows without bound (a slow wander identified on a 2 s
+  record as a parabola, asked to predict a 5 s record).
 
 Every stage is discrete at ``sample_period_s``: the model is a sampled-data
 model of the record it was identified from, and an FMU built from it must step
@@ -73,6 +77,7 @@ class OutputStagesStruct(ctypes.Structure):
         ("creep_weights", _DOUBLE_P),
         ("n_drift", ctypes.c_int),
         ("drift", _DOUBLE_P),
+        ("drift_span", ctypes.c_double),
     ]
 
 
@@ -230,10 +235,12 @@ class OutputStages:
         Creep modes (see :func:`tustin_creep_mode`), weights in µm/V.
     drift : array_like
         ``p_1 .. p_n`` in µm/s^j.
+    drift_span_s : float
+        From this time on (s, > 0) the drift holds its value; 0: it runs on.
     """
 
     def __init__(self, sections=(), delay_samples: float = 0.0, creep_alpha=(), creep_beta=(),
-                 creep_weights=(), drift=()):
+                 creep_weights=(), drift=(), drift_span_s: float = 0.0):
         self.sections = _kernel.contiguous(np.reshape(sections, (-1, 5)))
         self.delay_samples = float(delay_samples)
         whole = math.floor(delay_samples)
@@ -243,6 +250,7 @@ class OutputStages:
         self.creep_beta = _kernel.contiguous(creep_beta).ravel()
         self.creep_weights = _kernel.contiguous(creep_weights).ravel()
         self.drift = _kernel.contiguous(drift).ravel()
+        self.drift_span_s = float(drift_span_s)
         if not (self.creep_alpha.size == self.creep_beta.size == self.creep_weights.size):
             raise ModelError("creep_alpha, creep_beta and creep_weights must have the same length")
         if not 0 <= self.delay_whole <= MAX_DELAY_SAMPLES:
@@ -251,7 +259,7 @@ class OutputStages:
             self.sections.shape[0], _kernel.as_pointer(self.sections), self.delay_whole,
             self.delay_fraction, self.creep_alpha.size, _kernel.as_pointer(self.creep_alpha),
             _kernel.as_pointer(self.creep_beta), _kernel.as_pointer(self.creep_weights),
-            self.drift.size, _kernel.as_pointer(self.drift))
+            self.drift.size, _kernel.as_pointer(self.drift), self.drift_span_s)
         status = _library().ostage_check(ctypes.byref(self._struct))
         if status != 0:
             raise ModelError("invalid output stages: " + _library().ostage_message(status).decode())
@@ -386,6 +394,9 @@ class StageSpec:
         ``1 − Σ shares`` of its new value and creeps the rest.
     drift_coefficients : tuple of float
         ``p_1, p_2, ...``: drift ``Σ p_j t^j`` in µm, t in s since the start.
+    drift_span_s : float
+        From this time on (s) the drift holds the value it has there: the span
+        of the record it was identified on (0: the polynomial runs on).
 
     Examples
     --------
@@ -404,13 +415,14 @@ class StageSpec:
     drift_coefficients: tuple = ()
     displacement_creep_time_constants_s: tuple = ()
     displacement_creep_shares: tuple = ()
+    drift_span_s: float = 0.0
     _runner: OutputStages = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         problems = []
         scalars = {"sample_period_s": self.sample_period_s, "lag_time_constant_s": self.lag_time_constant_s,
                    "resonance_hz": self.resonance_hz, "damping_ratio": self.damping_ratio,
-                   "delay_samples": self.delay_samples}
+                   "delay_samples": self.delay_samples, "drift_span_s": self.drift_span_s}
         for key, value in scalars.items():
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 problems.append(f"{key} must be a finite number >= 0, got {value!r}")
@@ -445,7 +457,7 @@ class StageSpec:
         object.__setattr__(self, "displacement_creep_shares", shares)
         p = self.coefficients()
         object.__setattr__(self, "_runner", OutputStages(p["sections"], self.delay_samples, p["creep_alpha"],
-                                                         p["creep_beta"], weights, drift))
+                                                         p["creep_beta"], weights, drift, self.drift_span_s))
 
     def coefficients(self) -> dict:
         """The discrete coefficients the C stages (and the plant FMU) use.
@@ -454,7 +466,7 @@ class StageSpec:
         -------
         dict with ``sections`` (list of ``[b0, b1, b2, a1, a2]``), ``delay_whole``
         (int), ``delay_fraction``, ``creep_alpha``, ``creep_beta``,
-        ``creep_weights``, ``drift`` (lists of float) and ``sample_period_s``.
+        ``creep_weights``, ``drift`` (lists of float), ``drift_span_s`` and ``sample_period_s``.
         """
         T = self.sample_period_s
         sections = []
@@ -474,6 +486,7 @@ class StageSpec:
             "creep_beta": [b for _, b in creep],
             "creep_weights": list(self.creep_weights_um_per_V),
             "drift": list(self.drift_coefficients),
+            "drift_span_s": self.drift_span_s,
             "sample_period_s": T,
         }
 

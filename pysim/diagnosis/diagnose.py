@@ -273,7 +273,7 @@ def _reasons(candidates: dict, stats: dict, steps: dict | None = None) -> dict:
             hint = (f"direction-signed residual vs ln(time since change): correlation "
                     f"{stats['creep_log_correlation']:+.2f}")
         elif cause == "drift":
-            shape = f"polynomial of degree {p['degree']} in time"
+            shape = f"polynomial of degree {p['degree']} in time, held after the record's {p['span_s']:.4g} s"
             hint = (f"{100 * stats['low_frequency_fraction']:.0f} % of the residual power below a fifth of the "
                     f"input frequency")
         elif cause == "rate_dependent_hysteresis":

@@ -122,6 +122,7 @@ def _stage_config(model) -> list:
         f"#define MODEL_CREEP_ALPHA {_c_array(stages['creep_alpha'])}",
         f"#define MODEL_CREEP_BETA {_c_array(stages['creep_beta'])}",
         f"#define MODEL_N_DRIFT {len(stages['drift'])}",
+        f"#define MODEL_DRIFT_SPAN {c_double_literal(stages['drift_span_s'])}",
         f"#define MODEL_STAGE_STATE_SIZE {plant_parts(model)[1].state_size}",
     ]
 
@@ -322,7 +323,8 @@ def stage_summary(model) -> str:
         n = len(stages.displacement_creep_time_constants_s)
         parts.append(f"{n} displacement creep mode{'s' if n > 1 else ''}")
     if stages.drift_coefficients:
-        parts.append(f"drift of degree {len(stages.drift_coefficients)}")
+        held = f", held from {stages.drift_span_s:g} s on" if stages.drift_span_s > 0 else ""
+        parts.append(f"drift of degree {len(stages.drift_coefficients)}{held}")
     return " + ".join(parts) or "none"
 
 

@@ -14,7 +14,8 @@ output stages) adds, after ``b[n]``, the parameters its stages use as they are
 -- the creep weights ``creep_weight[j]`` and the drift coefficients
 ``drift[j]`` -- and then, last, read-only constants (causality ``local``,
 variability ``constant``) that show the stages' physical quantities: the
-sample period, lag time constant, resonance, delay and creep time constants.
+sample period, lag time constant, resonance, delay, creep time constants and
+the drift's span.
 Those are fixed at build time: the stages are discretised for the sample
 period, and the delay line's length is part of the FMU's memory layout.
 """
@@ -158,6 +159,9 @@ def _stage_variables(model, first_vr: int) -> list:
             "(driven by the hysteresis output)", "s", tau)
         add(f"displacement_creep_share[{j}]", "local", f"share of a settled displacement that displacement "
             f"creep mode {j} contributes", None, share)
+    if stages.drift_coefficients and stages.drift_span_s > 0:
+        add("drift_span", "local", "time from which the drift holds its value (the end of the record it "
+            "was identified on)", "s", stages.drift_span_s)
     return out
 
 
