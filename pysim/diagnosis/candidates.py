@@ -84,7 +84,7 @@ from pysim.core.extended import (
     tustin_displacement_creep,
 )
 from pysim.diagnosis.errors import DiagnosisError
-from pysim.diagnosis.input_stages import InputStageModel, apply_input_stage
+from pysim.diagnosis.input_stages import InputStageModel, apply_input_stage, slew_rate_grid
 from pysim.identification.determinacy import cycle_prediction_spread, finer_fit_determined
 from pysim.identification.identify import (
     IdentificationError,
@@ -631,10 +631,10 @@ class CandidateFitter:
                           parameters={"input_time_constant_s": tau}, input_stage=("lowpass", tau))
 
     def slew_limit(self, base: Family) -> Family:
-        fastest = float(np.max(np.abs(np.diff(self.v)))) / self.T
-        if not fastest > 0:
+        rates = slew_rate_grid([(self.v, self.T)], 12)
+        if rates.size == 0:
             raise DiagnosisError("the input never changes: no slew limit can be fitted")
-        grid = np.linspace(math.log(fastest / 40.0), math.log(fastest), 12)
+        grid = np.log(rates)
         rate = self._input_search(base, "slew_limit", grid)
         return self._with(base, "slew_limit", parameters={"rate_V_per_s": rate, "rate_V_per_ms": rate / 1e3},
                           input_stage=("slew_limit", rate))

@@ -289,6 +289,8 @@ def _reasons(candidates: dict, stats: dict, steps: dict | None = None) -> dict:
         if steps and cause in steps["removed_share"]:
             verdict += (f" in the blocks; on the responses to {steps['windows']} step(s) into holds it removes "
                         f"{100 * steps['removed_share'][cause]:.0f} % of {steps['excess_sigma2']:.3g} σ²")
+            if cause in steps.get("in_sample_sigma2", {}):
+                verdict += f", and fitted on the whole record it leaves {steps['in_sample_sigma2'][cause]:.3g} σ² there"
         text[cause] = (f"{shape}: cross-validated RMS {ev.rms_pct:.3g} % (gain {ev.gain_pct:+.1f} % against the "
                        f"baseline, {ev.gain_vs_richer_pct:+.1f} % against the best rate-independent model, removes "
                        f"{ev.excess_over_noise:.2f} σ²: {verdict}); condition number {cond:.3g}; {hint}")
@@ -1504,8 +1506,10 @@ class _DiagnosisRun:
             lo, hi = float(v.min()), float(v.max())
             excitation, plan = separating_excitation(causes, (lo, hi), self.sample_rate_hz, max(v.size, 6000),
                                                      candidates={c: candidates[c].fit.parameters for c in causes})
-            why += (f". The record cannot tell {', '.join(causes)} apart (their errors differ by less than "
-                    f"{100 * TIE_FRACTION:.0f} % of what the best leaves above the noise, or than the noise margin): "
+            reason = ("one fits the steps and the other predicts them" if "out_of_sample_best" in verdict.get("steps", {})
+                      else f"their errors differ by less than {100 * TIE_FRACTION:.0f} % of what the best leaves above "
+                           "the noise, or than the noise margin")
+            why += (f". The record cannot tell {', '.join(causes)} apart ({reason}): "
                     f"play the excitation written by `pysim excite` ({'; '.join(p['purpose'] for p in plan)}) and "
                     "diagnose that record")
         held = self.split.heldout
@@ -1583,12 +1587,23 @@ def _why_named(verdict, baseline, richer, candidates, noise, validation) -> str:
                 f"them, it removes {100 * steps['removed_share'][cause]:.0f} % (the median over the "
                 f"cross-validation blocks, {baseline.rms_pct:.3g} % → {ev.rms_pct:.3g} % of range, does not "
                 f"weigh so few samples; σ = {noise:.3g} µm)")
+        if "out_of_sample_best" in steps:
+            lost, fitted = steps["out_of_sample_best"], steps["in_sample_sigma2"]
+            text = (f"{cause} fits the responses to {steps['windows']} step{'s' if steps['windows'] > 1 else ''} "
+                    f"into holds within the noise ({fitted[cause]:.3g} σ² in the {steps['samples']} samples after "
+                    f"them, fitted on the whole record), where {lost}, which predicts them best with each left "
+                    f"out of its fit, leaves {fitted[lost]:.3g} σ² even fitted: left out, a step hides the "
+                    f"branch of the hysteresis that {cause}'s response runs along, so the two are named together "
+                    f"(of the {steps['excess_sigma2']:.3g} σ² above the noise there, {cause} removes "
+                    f"{100 * steps['removed_share'][cause]:.0f} % out of sample, {lost} "
+                    f"{100 * steps['removed_share'][lost]:.0f} %; σ = {noise:.3g} µm)")
     else:
         text = (f"{cause} lowers the cross-validated RMS error the most: {baseline.rms_pct:.3g} % → "
                 f"{ev.rms_pct:.3g} % of range ({ev.gain_pct:.1f} % less; {ev.gain_vs_richer_pct:.1f} % less "
                 f"than the best rate-independent model, the {ref}; {ev.excess_over_noise:.3g} σ² removed, "
                 f"σ = {noise:.3g} µm)")
-    others = [c for c in verdict["causes"] if c != cause]
+    named_with_it = verdict.get("steps", {}).get("out_of_sample_best")     # its sentence names it already
+    others = [c for c in verdict["causes"] if c not in (cause, named_with_it)]
     if others:
         text += f"; {', '.join(others)} explain it as well"
     return text + ("" if validation is None else validation["remark"])

@@ -81,6 +81,40 @@ def slew_limit(voltage_V, rate_V_per_s: float, sample_period_s: float) -> np.nda
     return np.array(followed, dtype=float)
 
 
+#: The slew rates searched first span this ratio below the fastest move of the records.
+SLEW_SEARCH_SPAN = 40.0
+
+
+def slew_rate_grid(records, points: int) -> np.ndarray:
+    """Slew rates (V/s) to search for the records ``[(voltage_V, sample_period_s), ...]``, ascending.
+
+    ``points`` rates, evenly spaced in log, from a ``SLEW_SEARCH_SPAN``-th of the fastest move of
+    the records (V/s) up to it; below them, at the same spacing, more rates down to the slowest
+    limit a record can show, the rate that crosses its input's span once in the whole record (a
+    slower limit never lets the stage follow it).  Steps move far faster than a large stack's
+    amplifier may follow: independent seed 759's second record moves 500 V/ms behind a 1.5 V/ms
+    limit, which the first rates alone do not reach.  Empty when no record's input moves.
+
+    Examples
+    --------
+    >>> steps = np.repeat([0.0, 100.0, 0.0], 1000)             # 100 V in one 1 ms sample
+    >>> grid = slew_rate_grid([(steps, 1e-3)], 3)
+    >>> (grid / 1e3).round(4).tolist()                          # V/ms
+    [0.0333, 0.1406, 0.5928, 2.5, 15.8114, 100.0]
+    """
+    fastest = max((float(np.max(np.abs(np.diff(np.asarray(v, dtype=float))))) / T
+                   for v, T in records if np.size(v) > 1), default=0.0)
+    if not fastest > 0:
+        return np.zeros(0)
+    top = np.geomspace(fastest / SLEW_SEARCH_SPAN, fastest, points)
+    slowest = min(float(np.ptp(np.asarray(v, dtype=float))) / (np.size(v) * T) for v, T in records)
+    if not 0 < slowest < top[0]:
+        return top
+    spacing = math.log(top[1] / top[0]) if points > 1 else math.log(SLEW_SEARCH_SPAN)
+    below = math.ceil(math.log(top[0] / slowest) / spacing)
+    return np.r_[np.geomspace(slowest, top[0], below + 1)[:-1], top]
+
+
 def apply_input_stage(kind: str, parameter: float, voltage_V, sample_period_s: float) -> np.ndarray:
     """Run the input stage ``kind`` (:data:`INPUT_STAGE_KINDS`) with its parameter
     (time constant in s, or rate in V/s)."""

@@ -60,7 +60,7 @@ import scipy.optimize
 from pysim.core.extended import OutputStages, first_order_section
 from pysim.diagnosis.bouc_wen import N_OPERATORS, bouc_wen_bank, forgotten_from
 from pysim.diagnosis.candidates import creep_time_constants_s, gain_sign, mode_lags
-from pysim.diagnosis.input_stages import apply_input_stage
+from pysim.diagnosis.input_stages import apply_input_stage, slew_rate_grid
 from pysim.diagnosis.residuals import record_noise_sigma
 from pysim.diagnosis.rules import DECISIVE_SHARE, NOISE_FRACTION, TIE_FRACTION, UNEXPLAINED_LEVEL
 from pysim.identification.identify import operator_bounds
@@ -449,9 +449,10 @@ class GeneralModelParts:
         line, curve = with_trend(1), with_trend(2)
         return curve if curve.excess_sigma2 <= 0.8 * line.excess_sigma2 else line
 
-    def searched(self, effect, low, high) -> JointFit:
-        """The effect with its shape parameter searched on a log grid, then refined."""
-        grid = np.geomspace(low, high, 8)
+    def searched(self, effect, low, high, grid=None) -> JointFit:
+        """The effect with its shape parameter searched on a log grid (8 points from ``low`` to
+        ``high``, or the ascending ``grid`` given), then refined."""
+        grid = np.geomspace(low, high, 8) if grid is None else np.asarray(grid, dtype=float)
         fits = [self.fit(effect, p, search=True) for p in grid]
         k = int(np.argmin([f.excess_sigma2 for f in fits]))
         lo, hi = math.log(grid[max(k - 1, 0)]), math.log(grid[min(k + 1, grid.size - 1)])
@@ -470,7 +471,7 @@ class GeneralModelParts:
         period = max(self.T)
         shortest = min(self.part_s)
         slowest_lag_s = min(300.0 * period, shortest / 20)
-        fastest_V_per_s = max(float(np.max(np.abs(np.diff(v)))) / T for v, T in zip(self.v, self.T))
+        rates = slew_rate_grid(list(zip(self.v, self.T)), 8)
         fits = {"none": alone,
                 "rate_dependence": self.searched("rate_dependence", 0.05 * min(self.T), slowest_lag_s),
                 "delay": self.searched("delay", 0.1 * min(self.T), 10.0 * period),
@@ -478,8 +479,8 @@ class GeneralModelParts:
                 "drift": self.fit("drift"),
                 "rate_dependent_hysteresis": self.searched("rate_dependent_hysteresis", 0.05 * min(self.T),
                                                            slowest_lag_s)}
-        if fastest_V_per_s > 0:
-            fits["slew_limit"] = self.searched("slew_limit", fastest_V_per_s / 40.0, fastest_V_per_s)
+        if rates.size:
+            fits["slew_limit"] = self.searched("slew_limit", rates[0], rates[-1], rates)
         return fits
 
 
