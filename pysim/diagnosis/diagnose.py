@@ -1506,9 +1506,14 @@ class _DiagnosisRun:
             lo, hi = float(v.min()), float(v.max())
             excitation, plan = separating_excitation(causes, (lo, hi), self.sample_rate_hz, max(v.size, 6000),
                                                      candidates={c: candidates[c].fit.parameters for c in causes})
-            reason = ("one fits the steps and the other predicts them" if "out_of_sample_best" in verdict.get("steps", {})
-                      else f"their errors differ by less than {100 * TIE_FRACTION:.0f} % of what the best leaves above "
-                           "the noise, or than the noise margin")
+            lost = _lost_on_steps_but_fits_them(verdict.get("steps"), cause)
+            tie = (f"their errors differ by less than {100 * TIE_FRACTION:.0f} % of what the best leaves above the "
+                   "noise, or than the noise margin")
+            if lost in causes:
+                reason = "one fits the steps and the other predicts them" + ("" if len(causes) == 2 else
+                                                                               f"; for {lost} and the rest, {tie}")
+            else:
+                reason = tie
             why += (f". The record cannot tell {', '.join(causes)} apart ({reason}): "
                     f"play the excitation written by `pysim excite` ({'; '.join(p['purpose'] for p in plan)}) and "
                     "diagnose that record")
@@ -1563,11 +1568,20 @@ def _second_record_shows_none(v2, y2, sample_rate_hz, validate_source, **options
             "out of sample)"), alone
 
 
+def _lost_on_steps_but_fits_them(steps: dict | None, cause: str):
+    """The cause that predicts the step windows best out of sample when ``cause`` leads the set
+    instead, fitting them where that one cannot (:func:`pysim.diagnosis.steps.shown_by_steps`);
+    None otherwise."""
+    lost = (steps or {}).get("out_of_sample_best")
+    return lost if lost not in (None, cause) and cause in steps["in_sample_sigma2"] else None
+
+
 def _why_named(verdict, baseline, richer, candidates, noise, validation) -> str:
     """The ``why`` of a named effect: by the second record, by the steps, or by the blocks."""
     cause = verdict["cause"]
     ref = "richer" if richer.mse_um2 < baseline.mse_um2 else "baseline"
     ev = candidates[cause]
+    named_with_it = None
     if validation is not None:
         row = validation["table"][cause]
         text = (f"{cause} lowers the error on the second record significantly"
@@ -1581,14 +1595,16 @@ def _why_named(verdict, baseline, richer, candidates, noise, validation) -> str:
                 f"{baseline.rms_pct:.3g} % → {ev.rms_pct:.3g} %")
     elif verdict.get("steps"):
         steps = verdict["steps"]
-        text = (f"{cause} predicts the responses to {steps['windows']} step{'s' if steps['windows'] > 1 else ''} "
-                f"into holds best, each left out of its fit: of the {steps['excess_sigma2']:.3g} σ² that the "
-                f"best rate-independent model leaves above the noise in the {steps['samples']} samples after "
-                f"them, it removes {100 * steps['removed_share'][cause]:.0f} % (the median over the "
-                f"cross-validation blocks, {baseline.rms_pct:.3g} % → {ev.rms_pct:.3g} % of range, does not "
-                f"weigh so few samples; σ = {noise:.3g} µm)")
-        if "out_of_sample_best" in steps:
-            lost, fitted = steps["out_of_sample_best"], steps["in_sample_sigma2"]
+        named_with_it = _lost_on_steps_but_fits_them(steps, cause)
+        if named_with_it is None:
+            text = (f"{cause} predicts the responses to {steps['windows']} step{'s' if steps['windows'] > 1 else ''} "
+                    f"into holds best, each left out of its fit: of the {steps['excess_sigma2']:.3g} σ² that the "
+                    f"best rate-independent model leaves above the noise in the {steps['samples']} samples after "
+                    f"them, it removes {100 * steps['removed_share'][cause]:.0f} % (the median over the "
+                    f"cross-validation blocks, {baseline.rms_pct:.3g} % → {ev.rms_pct:.3g} % of range, does not "
+                    f"weigh so few samples; σ = {noise:.3g} µm)")
+        else:
+            lost, fitted = named_with_it, steps["in_sample_sigma2"]
             text = (f"{cause} fits the responses to {steps['windows']} step{'s' if steps['windows'] > 1 else ''} "
                     f"into holds within the noise ({fitted[cause]:.3g} σ² in the {steps['samples']} samples after "
                     f"them, fitted on the whole record), where {lost}, which predicts them best with each left "
@@ -1602,8 +1618,7 @@ def _why_named(verdict, baseline, richer, candidates, noise, validation) -> str:
                 f"{ev.rms_pct:.3g} % of range ({ev.gain_pct:.1f} % less; {ev.gain_vs_richer_pct:.1f} % less "
                 f"than the best rate-independent model, the {ref}; {ev.excess_over_noise:.3g} σ² removed, "
                 f"σ = {noise:.3g} µm)")
-    named_with_it = verdict.get("steps", {}).get("out_of_sample_best")     # its sentence names it already
-    others = [c for c in verdict["causes"] if c not in (cause, named_with_it)]
+    others = [c for c in verdict["causes"] if c not in (cause, named_with_it)]     # the sentence names those
     if others:
         text += f"; {', '.join(others)} explain it as well"
     return text + ("" if validation is None else validation["remark"])

@@ -102,12 +102,12 @@ def slew_rate_grid(records, points: int) -> np.ndarray:
     >>> (grid / 1e3).round(4).tolist()                          # V/ms
     [0.0333, 0.1406, 0.5928, 2.5, 15.8114, 100.0]
     """
-    fastest = max((float(np.max(np.abs(np.diff(np.asarray(v, dtype=float))))) / T
-                   for v, T in records if np.size(v) > 1), default=0.0)
+    records = [(np.asarray(v, dtype=float).ravel(), float(T)) for v, T in records]
+    fastest = max((float(np.max(np.abs(np.diff(v)))) / T for v, T in records if v.size > 1), default=0.0)
     if not fastest > 0:
         return np.zeros(0)
     top = np.geomspace(fastest / SLEW_SEARCH_SPAN, fastest, points)
-    slowest = min(float(np.ptp(np.asarray(v, dtype=float))) / (np.size(v) * T) for v, T in records)
+    slowest = min(float(np.ptp(v)) / (v.size * T) for v, T in records)
     if not 0 < slowest < top[0]:
         return top
     spacing = math.log(top[1] / top[0]) if points > 1 else math.log(SLEW_SEARCH_SPAN)

@@ -449,10 +449,9 @@ class GeneralModelParts:
         line, curve = with_trend(1), with_trend(2)
         return curve if curve.excess_sigma2 <= 0.8 * line.excess_sigma2 else line
 
-    def searched(self, effect, low, high, grid=None) -> JointFit:
-        """The effect with its shape parameter searched on a log grid (8 points from ``low`` to
-        ``high``, or the ascending ``grid`` given), then refined."""
-        grid = np.geomspace(low, high, 8) if grid is None else np.asarray(grid, dtype=float)
+    def searched(self, effect, grid) -> JointFit:
+        """The effect with its shape parameter searched on the ascending log-spaced ``grid``, then refined."""
+        grid = np.asarray(grid, dtype=float)
         fits = [self.fit(effect, p, search=True) for p in grid]
         k = int(np.argmin([f.excess_sigma2 for f in fits]))
         lo, hi = math.log(grid[max(k - 1, 0)]), math.log(grid[min(k + 1, grid.size - 1)])
@@ -470,17 +469,16 @@ class GeneralModelParts:
             return {"none": alone}
         period = max(self.T)
         shortest = min(self.part_s)
-        slowest_lag_s = min(300.0 * period, shortest / 20)
+        time_constants_s = np.geomspace(0.05 * min(self.T), min(300.0 * period, shortest / 20), 8)
         rates = slew_rate_grid(list(zip(self.v, self.T)), 8)
         fits = {"none": alone,
-                "rate_dependence": self.searched("rate_dependence", 0.05 * min(self.T), slowest_lag_s),
-                "delay": self.searched("delay", 0.1 * min(self.T), 10.0 * period),
+                "rate_dependence": self.searched("rate_dependence", time_constants_s),
+                "delay": self.searched("delay", np.geomspace(0.1 * min(self.T), 10.0 * period, 8)),
                 "creep": self.fit("creep"),
                 "drift": self.fit("drift"),
-                "rate_dependent_hysteresis": self.searched("rate_dependent_hysteresis", 0.05 * min(self.T),
-                                                           slowest_lag_s)}
+                "rate_dependent_hysteresis": self.searched("rate_dependent_hysteresis", time_constants_s)}
         if rates.size:
-            fits["slew_limit"] = self.searched("slew_limit", rates[0], rates[-1], rates)
+            fits["slew_limit"] = self.searched("slew_limit", rates)
         return fits
 
 
