@@ -25,6 +25,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--kinds", nargs="+", default=["plant", "inverse"], choices=["plant", "inverse"],
                         help="which FMUs to build (default both); a plant alone builds from a model whose "
                              "inverse does not exist")
+    parser.add_argument("--without-input-stage", action="store_true",
+                        help="for a spec whose MODEL has a stage before the hysteresis (an input low-pass or a "
+                             "slew limit, which pysim diagnose --out writes when it names one): build the FMUs of "
+                             "the part after the stage (an FMU cannot hold it; without this option such a spec "
+                             "is refused)")
     parser.add_argument("--no-cache", action="store_true", help="compile everything again")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     return parser
@@ -35,7 +40,7 @@ def main(argv=None) -> int:
     progress = None if args.quiet else (lambda message: print(f"build-fmu: {message}", flush=True))
     try:
         build_fmus(args.spec, args.output, args.platforms, use_cache=not args.no_cache, progress=progress,
-                   kinds=args.kinds)
+                   kinds=args.kinds, without_input_stage=args.without_input_stage)
     except ToolchainError as exc:
         print(f"build-fmu: error: {exc}", file=sys.stderr)
         return 1

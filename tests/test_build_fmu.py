@@ -12,6 +12,7 @@ import pytest
 from pysim.specs.default_mpi import MODEL
 
 from build_fmu.cli import main
+from pysim.core.input_stage import InputStageModel
 from pysim.core.model import HysteresisModel
 from pysim.core.spec import write_spec
 from pysim.fmu import BuildError, build_fmus, macho
@@ -141,6 +142,24 @@ def test_non_invertible_spec_is_refused_with_the_voltage_where_it_fails(tmp_path
     onset = 150.0 * np.sqrt((2.42 + 5.0 * np.exp(-0.505) / 10) / 3.0)
     assert f"from {onset:.6g} V" in lines[0]
     assert not out.exists()
+
+
+def test_a_spec_with_an_input_stage_is_refused_unless_the_part_after_it_is_asked_for(tmp_path):
+    # an FMU cannot hold a stage before the hysteresis: building the plant without it silently would
+    # deliver a model other than the one named
+    spec = write_spec(InputStageModel(MODEL.with_parameters(name="slewed"), "slew_limit", 2.5e5, 1e-4),
+                      tmp_path / "slewed.py")
+    out = tmp_path / "out"
+    result = run_cli(spec, "-o", out)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(spec) in lines[0]
+    assert "slew limit 250 V/ms" in lines[0] and "--without-input-stage" in lines[0]
+    assert not out.exists()
+    said = []
+    built = build_fmus(spec, out, ("linux64",), without_input_stage=True, progress=said.append)
+    assert built["plant"].name == "slewed_plant.fmu"
+    assert any("slew limit 250 V/ms left out" in line for line in said)
 
 
 @pytest.mark.parametrize("problem, expected", [

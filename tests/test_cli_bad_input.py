@@ -263,6 +263,19 @@ def test_bandwidth_refuses_a_spec_without_inverse_naming_the_voltage(tmp_path, c
     assert snapshot(tmp_path) == {"steep.py": NOT_INVERTIBLE.encode()}
 
 
+@pytest.mark.parametrize("command", ["bandwidth", "track"])
+def test_the_chain_refuses_a_spec_with_an_input_stage_naming_it(tmp_path, capsys, command):
+    from pysim.core import InputStageModel, load_spec, write_spec
+
+    spec = write_spec(InputStageModel(load_spec(DEFAULT_MODEL), "lowpass", 2e-4, 1e-4), tmp_path / "lagged.py")
+    before = snapshot(tmp_path)
+    assert pysim_main([command, "--model", str(spec), "--stage", "none"]) == 2
+    message = one_error_line(capsys, f"pysim {command}: error: ")
+    assert str(spec) in message and "input low-pass, time constant 0.2 ms" in message
+    assert "--without-input-stage" in message
+    assert snapshot(tmp_path) == before
+
+
 # ------------------------------------------------ the real programs, once each
 def installed_program(name: str) -> str:
     """The console script the installation put beside the interpreter (as a user runs it)."""

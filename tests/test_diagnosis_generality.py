@@ -8,6 +8,8 @@ fitted models.
 """
 import math
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -17,9 +19,10 @@ from pysim.diagnosis.diagnose import diagnose
 from pysim.diagnosis.folds import make_folds, step_windows
 from pysim.diagnosis.rules import decide, removal_holds
 from pysim.diagnosis.excitation import separating_excitation
-from pysim.diagnosis.input_stages import InputStageModel, input_lowpass, slew_limit
+from pysim.core.input_stage import InputStageModel, input_lowpass, slew_limit
 from pysim.diagnosis.validation import score_on_record
-from pysim.identification.data import load_measured, shipped_dataset
+from pysim.core.spec import load_spec
+from pysim.identification.data import MeasuredData, load_measured, save_measured, shipped_dataset
 from pysim.testing.synthetic import make_case
 
 FS = 2000.0
@@ -1538,6 +1541,33 @@ def test_a_slew_limit_far_below_the_fastest_step_is_found_on_steps(plant):
     assert np.mean((y - fit.prediction_um) ** 2) < 1.5 * noise_um**2
 
 
+def test_the_spec_written_for_an_input_stage_holds_the_stage_and_predicts_a_new_input(plant, tmp_path):
+    """``pysim diagnose --out`` for a slew limit: the spec's MODEL is the stage and then the plant, so
+    run from the file on another staircase (other levels, never diagnosed) it follows the true actuator
+    to within a few noise σ once the input has been near both ends of the range, where the part after
+    the stage alone misses the ramps by far more."""
+    top = plant.voltage_range_V[1]
+    v = np.repeat(np.array([0.05, 0.9, 0.2, 0.7, 0.1, 0.95, 0.4, 0.6]) * top, 1200)
+    y = noisy(slew_limited(plant, v, 1.0), 7)
+    record = save_measured(MeasuredData(np.arange(v.size) * T, v, y, "synthetic"), tmp_path / "slewed.csv")
+    spec = tmp_path / "slewed_ext.py"
+    run = subprocess.run([sys.executable, "-m", "pysim.cli.main", "diagnose", str(record), "--out", str(spec)],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert "cause slew_limit" in run.stdout, run.stdout
+    model = load_spec(spec)
+    assert isinstance(model, InputStageModel) and model.kind == "slew_limit"
+    assert model.parameter / 1e3 == pytest.approx(1.0, rel=0.05)
+    new_input = np.repeat(np.array([0.5, 0.15, 0.85, 0.3, 0.93, 0.07, 0.6]) * top, 1000)   # inside its range
+    truth = slew_limited(plant, new_input, 1.0)
+    # scored once the input has been near both ends of the record's range: before that, what "from rest"
+    # leaves in the operators differs between a model fitted on 0.05-0.95 of the range and the actuator
+    wiped = slice(5000, None)
+    noise_um = 0.002 * np.ptp(y)
+    assert np.sqrt(np.mean((model.simulate(new_input) - truth)[wiped] ** 2)) < 3 * noise_um
+    assert np.sqrt(np.mean((model.plant.simulate(new_input) - truth)[wiped] ** 2)) > 30 * noise_um
+
+
 @pytest.mark.parametrize("tau_s", [5e-3, 0.3e-3])
 def test_input_lowpass_follows_a_ramped_step_as_the_closed_form(tau_s):
     """The input 0, 1, 1, ... is, linear between samples, a ramp over the first period and then
@@ -2410,12 +2440,14 @@ def test_without_a_second_record_a_creep_model_that_misses_the_record_gives_way_
 
 def test_a_history_floor_makes_the_model_delivered_run_from_rest_and_predict_a_new_input():
     """Outside-class seed 271 (a Bouc-Wen actuator with a 0-150 V amplifier and a delay; its first record
-    starts at 92 V and reaches 0 V at sample 2506).  Without a floor the top operator's start state is
-    fitted at -13.3 V, which only a history below 0 V leaves; the delay is named, but its model,
-    simulated from rest on a third input the diagnosis never saw, misses the actuator's noise-free
-    response worse than the plain fit does.  Told that the amplifier's lowest output is 0 V, the same
-    cause is named, every start state is one a history above 0 V leaves, and the model delivered
-    predicts the third input several times better than the plain fit."""
+    starts at 92 V and reaches 0 V at sample 2506).  Without a floor the top operator's start state had
+    been fitted at -13.3 V, which only a history below 0 V leaves, and the delay's model, simulated from
+    rest on a third input the diagnosis never saw, missed the actuator's noise-free response worse than
+    the plain fit did (1.86 times its RMS error).  Since a start state whose columns the delay makes
+    dependent drops out of the fit through the stage instead of failing it, the fit without a floor
+    predicts the third input better too.  Told that the amplifier's lowest output is 0 V, the same cause
+    is named, every start state is one a history above 0 V leaves, and the model delivered predicts the
+    third input several times better than the plain fit."""
     import outside_class_records
 
     pair = outside_class_records.make_outside_pair(271)
@@ -2433,7 +2465,7 @@ def test_a_history_floor_makes_the_model_delivered_run_from_rest_and_predict_a_n
         ratio[floor] = third_rms(d.extended.model) / third_rms(d.baseline.model)
         if floor is not None:
             assert np.all(np.asarray(d.extended.fit.state.operators) >= -1e-12)
-    assert ratio[None] > 1.0 and ratio[0.0] < 0.5, ratio
+    assert ratio[None] < 0.5 and ratio[0.0] < 0.5, ratio
 
 
 def test_a_history_floor_above_a_records_lowest_voltage_is_refused_naming_the_record(plant):

@@ -369,3 +369,17 @@ def test_identify_through_a_linear_stage_recovers_parameters(stages, rng):
                                rtol=1e-6)
     np.testing.assert_allclose(result.model.weights[1:], truth.weights[1:], rtol=1e-6)
     np.testing.assert_allclose(result.prediction_um, y, atol=1e-9)
+
+
+def test_identify_through_a_delay_ties_operators_that_only_the_delayed_samples_tell_apart():
+    # a staircase that leaves its levels only on its last sample: that sample is the one place where
+    # the top operators differ from the offset, and a delay of 3 samples moves it out of the record.
+    # The fit through the delay ties them (reported as not identifiable) instead of refusing the family.
+    truth = paper_model(voltage_range=(0.0, 1.0))
+    levels = np.r_[np.linspace(0.1, 1.0, 5), np.linspace(1.0, 0.1, 5)[1:]]
+    v = np.r_[np.repeat(levels, 30), 0.0]
+    stages = OutputStages(delay_samples=3.0)
+    y, _ = stages.run(truth.simulate(v))
+    result = identify(v, y, column_transform=stages.apply_to_columns, min_slope_fraction=-1)
+    assert result.not_identifiable_operators
+    np.testing.assert_allclose(result.prediction_um, y, atol=1e-4 * np.ptp(y))

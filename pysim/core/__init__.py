@@ -1,5 +1,5 @@
 """The model core: MPI/CPI hysteresis models, output stages, invertibility,
-inverse compensators, the C kernel binding, spec files and the paper's error
+stages before the hysteresis, inverse compensators, the C kernel binding, spec files and the paper's error
 measures.  Imports nothing else of the package.
 
 Examples
@@ -14,10 +14,12 @@ True
 """
 from pysim.core.errors import ModelError, NotInvertibleError, PiezoMPIError, SpecError
 from pysim.core.extended import ExtendedModel, ExtendedState, OutputStages, StageSpec
+from pysim.core.input_stage import InputStageModel
 from pysim.core.metrics import error_measures
 from pysim.core.model import HysteresisModel, InverseCompensator, analytic_inverse, eq13_thresholds, invert
 from pysim.core.spec import load_spec, write_spec
 
-__all__ = ["HysteresisModel", "ExtendedModel", "ExtendedState", "OutputStages", "StageSpec", "InverseCompensator",
+__all__ = ["HysteresisModel", "ExtendedModel", "ExtendedState", "OutputStages", "StageSpec", "InputStageModel",
+           "InverseCompensator",
            "analytic_inverse", "invert", "eq13_thresholds", "error_measures", "load_spec", "write_spec",
            "PiezoMPIError", "ModelError", "NotInvertibleError", "SpecError"]

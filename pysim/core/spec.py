@@ -1,8 +1,12 @@
 """Model specs: Python files that define ``MODEL``.
 
 A spec is a Python module (in ``models/`` or anywhere) whose module-level
-``MODEL`` is a :class:`pysim.core.model.HysteresisModel` (or a subclass, such as an
-extended model).  ``pysim identify`` writes them, ``build-fmu`` reads them.
+``MODEL`` is a :class:`pysim.core.model.HysteresisModel`, an extended model
+(:class:`pysim.core.extended.ExtendedModel`: output stages after the
+hysteresis) or a model with a stage before it
+(:class:`pysim.core.input_stage.InputStageModel`).  ``pysim identify`` and
+``pysim diagnose --out`` write them, ``build-fmu`` reads them, and
+:func:`load_spec` gives the model to run on any input.
 """
 from __future__ import annotations
 
@@ -16,7 +20,11 @@ from pathlib import Path
 from pysim.core.errors import SpecError
 from pysim.core.extended import ExtendedModel
 from pysim.core.fileio import atomic_write_text
+from pysim.core.input_stage import InputStageModel
 from pysim.core.model import HysteresisModel
+
+#: What a spec's ``MODEL`` may be.
+MODEL_TYPES = (HysteresisModel, ExtendedModel, InputStageModel)
 
 
 def load_module(source, what: str = "spec"):
@@ -63,22 +71,36 @@ def load_module(source, what: str = "spec"):
         raise SpecError(f"{text}: {type(exc).__name__}: {exc}") from exc
 
 
-def load_spec(source) -> HysteresisModel:
+def load_spec(source):
     """Load the ``MODEL`` of a spec.
 
     Parameters
     ----------
-    source : str, Path or HysteresisModel
+    source : str, Path or model
         A path to a ``.py`` file, a module name (``pysim.specs.default_mpi``), a bare
         name of a shipped spec (``default_mpi``), or a model (returned); see
         :func:`load_module`.
+
+    Returns
+    -------
+    HysteresisModel, ExtendedModel or InputStageModel
+        Every one runs a voltage record (V) with ``simulate`` into displacement (µm),
+        from rest at its first sample unless given a state.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> model = load_spec("default_mpi")
+    >>> y = model.simulate(np.linspace(0.0, 150.0, 4))
+    >>> model.name, round(float(y[-1]), 1)
+    ('default_mpi', 74.6)
     """
-    if isinstance(source, (HysteresisModel, ExtendedModel)):
+    if isinstance(source, MODEL_TYPES):
         return source
     module = load_module(source, "spec")
     model = getattr(module, "MODEL", None)
-    if not isinstance(model, (HysteresisModel, ExtendedModel)):
-        raise SpecError(f"{source}: defines no MODEL of type HysteresisModel or ExtendedModel")
+    if not isinstance(model, MODEL_TYPES):
+        raise SpecError(f"{source}: defines no MODEL of type HysteresisModel, ExtendedModel or InputStageModel")
     return model
 
 

@@ -83,8 +83,9 @@ from pysim.core.extended import (
     tustin_creep_mode,
     tustin_displacement_creep,
 )
+from pysim.core.input_stage import InputStageModel, apply_input_stage
 from pysim.diagnosis.errors import DiagnosisError
-from pysim.diagnosis.input_stages import InputStageModel, apply_input_stage, slew_rate_grid
+from pysim.diagnosis.input_stages import slew_rate_grid
 from pysim.identification.determinacy import cycle_prediction_spread, finer_fit_determined
 from pysim.identification.identify import (
     IdentificationError,

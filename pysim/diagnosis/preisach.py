@@ -44,7 +44,7 @@ runs it (one implementation of each stage):
   :func:`~pysim.diagnosis.candidates.creep_time_constants_s`), driven by the input
   or by the displacement, each record with its modes' free decay from its first
   sample (a history before it leaves them away from rest);
-- before the hysteresis (:func:`pysim.diagnosis.input_stages.apply_input_stage`):
+- before the hysteresis (:func:`pysim.core.input_stage.apply_input_stage`):
   ``rate_dependent_hysteresis`` (an input low-pass) and ``slew_limit``; the
   operators' paths are run again on the stage's output.
 """
@@ -58,9 +58,10 @@ import scipy.linalg
 import scipy.optimize
 
 from pysim.core.extended import OutputStages, first_order_section
+from pysim.core.input_stage import apply_input_stage
 from pysim.diagnosis.bouc_wen import N_OPERATORS, bouc_wen_bank, forgotten_from
 from pysim.diagnosis.candidates import creep_time_constants_s, gain_sign, mode_lags
-from pysim.diagnosis.input_stages import apply_input_stage, slew_rate_grid
+from pysim.diagnosis.input_stages import slew_rate_grid
 from pysim.diagnosis.residuals import record_noise_sigma
 from pysim.diagnosis.rules import DECISIVE_SHARE, NOISE_FRACTION, TIE_FRACTION, UNEXPLAINED_LEVEL
 from pysim.identification.identify import operator_bounds

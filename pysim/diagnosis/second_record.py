@@ -24,11 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pysim.core.input_stage import InputStageModel
 from pysim.core.metrics import error_measures
 from pysim.diagnosis.candidates import EFFECTS, MAX_CREEP_SHARE, CandidateFit, CandidateFitter
 from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.folds import N_FOLDS, contiguous_blocks, record_folds, input_period
-from pysim.diagnosis.input_stages import InputStageModel
 from pysim.diagnosis.path_memory import path_memory, path_predicted
 from pysim.diagnosis.preisach import creep_on_both_records
 from pysim.diagnosis.residuals import models_noise_sigma, record_noise_sigma

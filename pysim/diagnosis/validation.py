@@ -32,8 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from pysim.core.input_stage import InputStageModel
 from pysim.diagnosis.candidates import CandidateFit, initial_extended_state
-from pysim.diagnosis.input_stages import InputStageModel
 from pysim.diagnosis.residuals import record_noise_sigma
 from pysim.identification.identify import (best_clamped_state, history_floor_for_input, operator_bounds,
                                           refine_state_through_stage, short_history_states)

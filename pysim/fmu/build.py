@@ -18,6 +18,7 @@ from pathlib import Path
 
 from pysim.core.extended import ExtendedModel, plant_parts
 from pysim.core.fileio import staged_directory
+from pysim.core.input_stage import InputStageModel
 from pysim.core.model import HysteresisModel
 from pysim.core.spec import SpecError, load_spec
 from pysim.core.toolchain import SOURCE_DIR, cache_dir
@@ -92,12 +93,17 @@ def fmu_models(model) -> dict:
 
 
 def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache=True,
-               cache_dir=None, progress=None, kinds=KINDS) -> dict:
+               cache_dir=None, progress=None, kinds=KINDS, without_input_stage: bool = False) -> dict:
     """Build ``<name>_plant.fmu`` and ``<name>_inverse.fmu``.
 
     For an extended spec with output stages the plant includes the stages
     and steps at the spec's sample period only; the inverse compensates the
-    hysteresis part alone (the stages are not inverted).
+    hysteresis part alone (the stages are not inverted).  A model with a
+    stage before the hysteresis (:class:`~pysim.core.input_stage.InputStageModel`,
+    which ``pysim diagnose --out`` writes for an input low-pass or a slew
+    limit) is refused: the FMUs hold no input stage, and a plant FMU without it
+    would not be the model named.  ``without_input_stage=True`` builds the part
+    after the stage, and says so.
 
     Parameters
     ----------
@@ -116,6 +122,8 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
     kinds : iterable of {"plant", "inverse"}
         The FMUs to build (default both).  A plant alone builds from a model
         whose inverse does not exist (a rig's true actuator, say).
+    without_input_stage : bool
+        For a model with an input stage: build the FMUs of what follows it.
 
     Returns
     -------
@@ -135,7 +143,16 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
         model = load_spec(spec_or_model)
     except SpecError as exc:
         raise BuildError(str(exc)) from exc
-    source = (spec_or_model if not isinstance(spec_or_model, (HysteresisModel, ExtendedModel))
+    if isinstance(model, InputStageModel):
+        stage = model.stage_summary()
+        if not without_input_stage:
+            raise BuildError(f"{spec_or_model if not isinstance(spec_or_model, InputStageModel) else 'the model'}: "
+                             f"MODEL has an input stage before the hysteresis, {stage}, which an FMU cannot "
+                             "hold; build the FMUs of the part after it with --without-input-stage "
+                             "(build_fmus(..., without_input_stage=True)), knowing they omit that stage")
+        say(f"input stage {stage} left out, as asked: the FMUs are of the part after it")
+        model = model.plant
+    source = (spec_or_model if not isinstance(spec_or_model, (HysteresisModel, ExtendedModel, InputStageModel))
               else f"model {model.name}")
     names = platform_names(platforms)
     kinds = tuple(k for k in KINDS if k in tuple(kinds))

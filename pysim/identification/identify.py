@@ -878,7 +878,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
     # Only the window's rows are fitted; the state matters only where an
     # operator has not yet forgotten it (low < high): the "transient" rows.
     low_w, high_w, y_w, u_w = low[rows], high[rows], y[rows], u[rows]
-    columns.tie_dependent(state0, low_w, high_w, u_w, static_curve)
+    columns.tie_dependent(state0, low_w, high_w, u_w, static_curve,
+                          through=None if column_transform is None else (column_transform, low, high, u, rows))
     cubic, n_hyst = columns.cubic, columns.n_hyst
 
     if unexcited_message is None and np.any(r > 0) and not any(r[i] > 0 for i in columns.own):
@@ -1156,15 +1157,28 @@ class _Columns:
         """Every operator's weight (µm/V) from the fitted coefficients."""
         return _operator_weights(theta, self.anchor, self.factor, self.column_of)
 
-    def tie_dependent(self, state, low_w, high_w, u_w, static_curve: bool) -> None:
+    def tie_dependent(self, state, low_w, high_w, u_w, static_curve: bool, through=None) -> None:
         """Tie operators whose columns the fitted rows make linearly dependent on the others (few
         distinct input levels, as in steps) to their lower neighbour, the widest first, until the
-        columns are independent; drop u³ when the rows show only two input levels."""
+        columns are independent; drop u³ when the rows show only two input levels.
+
+        ``through``: ``(column_transform, low, high, u, rows)`` when the columns are fitted after a
+        stage, whose columns are then the ones probed.  A stage can make columns dependent that are
+        not before it: a delay of d samples drops the record's last d samples from every column
+        (a record whose input leaves its levels only on its last sample then loses the only sample
+        that tells two operators apart)."""
         r, anchor, factor = self.r, self.anchor, self.factor
         spacing = np.diff(np.concatenate(([0.0], r)))
         for _ in range(r.size + 1):
             own, n_hyst, column_of = self.own, self.n_hyst, self.column_of
-            probe_matrix = self.design(state, low_w, high_w, u_w)
+            if through is None:
+                probe_matrix = self.design(state, low_w, high_w, u_w)
+            else:
+                transform, low, high, u, rows = through
+                full = np.asarray(transform(self.design(state, low, high, u)), dtype=float)
+                # the fit through the stage starts from this state: kept for it (see transformed_design)
+                self.transformed_at = (np.array(state, dtype=float), full)
+                probe_matrix = full[rows]
             norms = np.linalg.norm(probe_matrix, axis=0)
             norms[norms == 0] = 1.0
             # only R and the pivots: forming Q would cost more than the whole fit
@@ -1200,6 +1214,16 @@ class _Columns:
                 if k != i and anchor[k] == i:        # operators tied to i follow it
                     anchor[k], factor[k] = anchor[i], factor[k] * factor[i]
             self._lay_out()
+        if rank < n_hyst:
+            self.transformed_at = None      # probed with a layout since changed
+
+    def transformed_design(self, state, low, high, u, transform) -> np.ndarray:
+        """The hysteresis columns of the whole record for operator ``state``, through ``transform``
+        (the last probe of :meth:`tie_dependent` when it was of this state and layout)."""
+        kept = getattr(self, "transformed_at", None)
+        if kept is not None and np.array_equal(kept[0], state):
+            return kept[1]
+        return np.asarray(transform(self.design(state, low, high, u)), dtype=float)
 
 
 class _WindowFit:
@@ -1392,8 +1416,7 @@ def _fit_through_transform(columns: _Columns, column_transform, record: _RecordA
                                                  record.extra_matrix, record.G, record.h)
 
     def transformed(state):
-        A_t = np.column_stack([np.asarray(column_transform(columns.design(state, low, high, u)), dtype=float),
-                               extra_matrix])
+        A_t = np.column_stack([columns.transformed_design(state, low, high, u, column_transform), extra_matrix])
         theta_t, active_t, condition_t = solve_lsi(A_t[rows], y[rows], G, h, names)
         e = y[rows] - A_t[rows] @ theta_t
         return state, A_t, theta_t, active_t, condition_t, float(e @ e)
@@ -1404,8 +1427,16 @@ def _fit_through_transform(columns: _Columns, column_transform, record: _RecordA
     remembered = np.arange(u.size)[rows]
     remembered = remembered[remembered <= (remembers[-1] if remembers.size else -1)]
     # the state estimated without the stage competes with the demagnetised one, and the better
-    # one is refined through the stage
-    best = min((transformed(state) for state in states), key=lambda fit: fit[-1])
+    # one is refined through the stage; a state whose columns the stage makes dependent drops out
+    fits, failure = [], None
+    for state in states:
+        try:
+            fits.append(transformed(state))
+        except IdentificationError as exc:
+            failure = exc
+    if not fits:
+        raise failure
+    best = min(fits, key=lambda fit: fit[-1])
     if refine:
         for _ in range(TRANSFORM_STATE_ROUNDS):
             try:

@@ -39,9 +39,15 @@ class Chain:
 
 
 def load_model(spec):
+    from pysim.core.input_stage import InputStageModel
     from pysim.core.spec import load_spec
 
-    return load_spec(spec)     # a SpecError is reported by pysim.cli.main
+    model = load_spec(spec)     # a SpecError is reported by pysim.cli.main
+    if isinstance(model, InputStageModel):
+        raise UserError(f"{spec}: MODEL has an input stage before the hysteresis ({model.stage_summary()}), which "
+                        "the co-simulated FMUs cannot hold; build the FMUs of the part after it with build-fmu "
+                        "--without-input-stage and give them with --plant and --inverse")
+    return model
 
 
 def open_chain(args, step_s: float = 1e-4, sweep: bool = False) -> Chain:

@@ -23,9 +23,14 @@ def register(subparsers) -> None:
                     "report the errors before and after.")
     parser.add_argument("data", help="measured data file")
     parser.add_argument("--json", action="store_true",
-                        help='print {"cause", "evidence", "baseline", "extended", "gain_pct"} as JSON')
+                        help='print {"source", "cause", "causes", "evidence" (why, candidates, scoring, '
+                             'validation, ...), "baseline", "extended" ("cause" is "baseline" when the model '
+                             'named is withheld), "gain_pct", "excitation"} as JSON')
     parser.add_argument("--report", metavar="DIR", help="write plots and summary.md into this folder")
-    parser.add_argument("--out", metavar="SPEC", help="write the extended model spec (a Python file) here")
+    parser.add_argument("--out", metavar="SPEC",
+                        help="write the model delivered as a spec (a Python file defining MODEL) here: the "
+                             "extended model, the plain fit when the verdict is none or the named model is "
+                             "withheld")
     parser.add_argument("--name", help="extended model name (a C identifier; default from --out)")
     parser.add_argument("--operators", type=int, default=10, metavar="N", help="number of operators (default 10)")
     parser.add_argument("--operator", choices=("osp", "play"), default="osp",
@@ -89,7 +94,7 @@ def run(args) -> int:
 
         write_report(result, args.report)
     if args.out:
-        write_spec(spec_model(result.extended.model), args.out, header=_spec_header(result))
+        write_spec(result.extended.model, args.out, header=_spec_header(result))
     if args.json:
         print(json.dumps(result.as_json(), indent=2))
     else:
@@ -97,19 +102,16 @@ def run(args) -> int:
     return 0
 
 
-def spec_model(model):
-    """The part of a fitted model a spec file can hold (an input stage cannot be)."""
-    return getattr(model, "plant", model)
-
-
 def _spec_header(result) -> str:
-    m = spec_model(result.extended.model)
     stage = result.extended.model
-    note = (f"\nThe named cause is an input stage ({stage.kind}, {stage.parameter:.6g}) before the hysteresis; "
-            "a spec holds only the hysteresis and output stages, so it is not part of this file."
+    m = getattr(stage, "plant", stage)
+    note = (f"\nThe named cause is a stage before the hysteresis ({stage.stage_summary()}): MODEL runs it "
+            "(pysim.core.load_spec(this file).simulate(voltage_V)), but an FMU cannot hold it; build-fmu "
+            "builds the part after it only when given --without-input-stage."
             if stage is not m else "")
     what = (f"Plain MPI model ({result.withheld} named; its model predicts the second record worse)"
-            if result.withheld else f"MPI model with output stages ({result.cause})")
+            if result.withheld else
+            f"MPI model with {'an input stage' if stage is not m else 'output stages'} ({result.cause})")
     both = (f" and {Path(result.validation['source'] or 'the second record').name} (shape parameters from the first)"
             if result.fitted_on_both_records else "")
     return (f"{what} identified from {Path(result.source).name}{both} by "
