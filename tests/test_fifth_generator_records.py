@@ -80,3 +80,26 @@ def test_a_delay_on_a_staircase_that_ends_with_a_one_sample_step_is_named(second
     def third_rms(model):
         return np.sqrt(np.mean((model.simulate(third["voltage_V"])[settled] - third["clean_um"][settled]) ** 2))
     assert third_rms(d.extended.model) < 0.5 * third_rms(d.baseline.model)
+
+
+def test_a_first_record_a_little_past_the_second_but_far_narrower_hands_it_the_fit():
+    """Seed 3: a 5-sample delay; the first record (band-limited noise after a history) spans 61-100 V,
+    the second (triangles from rest) 0-93 V.  The first reaches 7 % of the joint span that the second
+    does not, and misses 61 %.  The fit had stayed on the first record, because the second did not
+    cover all of it: the delay was named with a lag, and its model, extrapolating below 61 V, predicted
+    the third record (a chirp over 0-92 V) 1.45 times worse than the plain fit.  The second record is
+    now the one fitted, the delay is named alone, and its model predicts the third record far better."""
+    actuator = _actuator(3)
+    assert actuator["truth"] == "delay"
+    records, fs = actuator["records"], actuator["sample_rate_hz"]
+    first, second, third = records["A"], records["B"], records["C"]
+    assert first["voltage_V"].max() > second["voltage_V"].max() and first["voltage_V"].min() > 60.0
+    d = diagnose(first["voltage_V"], first["displacement_um"], fs,
+                 validate=(second["voltage_V"], second["displacement_um"], fs))
+    assert d.records_swapped, d.why
+    assert d.causes == ("delay",), d.why
+    settled = slice(int(0.1 * third["clean_um"].size), None)
+
+    def third_rms(model):
+        return np.sqrt(np.mean((model.simulate(third["voltage_V"])[settled] - third["clean_um"][settled]) ** 2))
+    assert third_rms(d.extended.model) < 0.1 * third_rms(d.baseline.model)

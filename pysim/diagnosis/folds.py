@@ -159,18 +159,28 @@ def split_record(voltage_V, train_fraction: float = DEFAULT_TRAIN_FRACTION, warm
 
 # -------------------------------------------------------------- folds
 
+#: The most of the two records' joint span that only the first may reach for the second to count as
+#: the wider record, and the most as a share of what only the second reaches.
+FIRST_ONLY_SHARE, FIRST_ONLY_RATIO = 0.1, 0.2
+
+
 def range_beyond_first(voltage1_V, voltage2_V) -> float:
     """Share of the input range that two records span together which only the second reaches,
-    when the second covers all of the first's (:func:`~pysim.diagnosis.validation.inside_range`:
-    to 0.1 % of its span); 0 otherwise.
+    when the second covers the first's (:func:`~pysim.diagnosis.validation.inside_range`: to 0.1 %
+    of its span) or nearly: what only the first reaches is at most ``FIRST_ONLY_SHARE`` of the
+    joint span and ``FIRST_ONLY_RATIO`` of what only the second reaches; 0 otherwise.
 
     Models fitted on the first record extrapolate there: its operators never moved that far, and
-    scoring on the second record leaves those samples out, so nothing would test them.
+    scoring on the second record leaves those samples out, so nothing would test them.  A first
+    record that goes a little past the second's top, as an outside generator's seed 3 (61-100 V
+    against 0-93 V), is still the narrower one by far.
 
     Examples
     --------
     >>> range_beyond_first([20.0, 80.0, 150.0], [0.0, 149.9, 60.0])
     0.13333333333333333
+    >>> round(range_beyond_first([61.3, 100.0], [0.0, 93.1]), 3)
+    0.613
     >>> range_beyond_first([0.0, 150.0], [10.0, 140.0]), range_beyond_first([20.0, 150.0], [0.0, 120.0])
     (0.0, 0.0)
     """
@@ -179,9 +189,12 @@ def range_beyond_first(voltage1_V, voltage2_V) -> float:
     span = high - low
     if not span > 0:
         return 0.0
+    only_second = (max(0.0, a.min() - b.min()) + max(0.0, b.max() - a.max())) / span
     if not inside_range([a.min(), a.max()], b.min(), b.max()).all():
-        return 0.0
-    return float((max(0.0, a.min() - b.min()) + max(0.0, b.max() - a.max())) / span)
+        only_first = (max(0.0, b.min() - a.min()) + max(0.0, a.max() - b.max())) / span
+        if only_first > min(FIRST_ONLY_SHARE, FIRST_ONLY_RATIO * only_second):
+            return 0.0
+    return float(only_second)
 
 
 def make_folds(voltage_V, n_folds: int = N_FOLDS, min_block: int = 200, settle: int = 0,
