@@ -374,6 +374,15 @@ def _triangular_factor(A, y):
         return R, Q.T @ y
 
 
+def _columns_singular(A) -> bool:
+    """Whether :func:`solve_lsi` would find the columns of ``A`` linearly dependent (its test, on the
+    columns scaled to unit norm)."""
+    norms = np.linalg.norm(A, axis=0)
+    norms[norms == 0] = 1.0
+    diagonal = np.abs(np.diag(scipy.linalg.qr(A / norms, mode="r")[0]))
+    return bool(diagonal.size) and float(np.min(diagonal)) <= 1e-10 * float(np.max(diagonal))
+
+
 def solve_lsi(A, y, G, h, names=None):
     """min ||A θ − y||  subject to  G θ >= h  (Lawson-Hanson, exact).
 
@@ -1163,22 +1172,34 @@ class _Columns:
         columns are independent; drop u³ when the rows show only two input levels.
 
         ``through``: ``(column_transform, low, high, u, rows)`` when the columns are fitted after a
-        stage, whose columns are then the ones probed.  A stage can make columns dependent that are
-        not before it: a delay of d samples drops the record's last d samples from every column
-        (a record whose input leaves its levels only on its last sample then loses the only sample
-        that tells two operators apart)."""
+        stage.  A stage that loses samples can make columns dependent that are not before it: a delay
+        of d samples drops the record's last d samples from every column (a record whose input leaves
+        its levels only on its last sample then loses the one sample that tells two operators apart).
+        When the columns through the stage could not be solved, the ties are made on them; otherwise
+        the ties stand as the columns before the stage give them (a stable stage keeps what they
+        tell apart)."""
+        self._tie_while_dependent(lambda: self.design(state, low_w, high_w, u_w), static_curve)
+        if through is None:
+            return
+        transform, low, high, u, rows = through
+
+        def probe_through_stage():
+            full = np.asarray(transform(self.design(state, low, high, u)), dtype=float)
+            # the fit through the stage starts from this state: kept for it (see transformed_design)
+            self.transformed_at = (np.array(state, dtype=float), full)
+            return full[rows]
+
+        if not _columns_singular(probe_through_stage()):
+            return
+        self._tie_while_dependent(probe_through_stage, static_curve)
+
+    def _tie_while_dependent(self, probe, static_curve: bool) -> None:
+        """The ties of :meth:`tie_dependent` for the columns ``probe()`` gives with the current layout."""
         r, anchor, factor = self.r, self.anchor, self.factor
         spacing = np.diff(np.concatenate(([0.0], r)))
         for _ in range(r.size + 1):
             own, n_hyst, column_of = self.own, self.n_hyst, self.column_of
-            if through is None:
-                probe_matrix = self.design(state, low_w, high_w, u_w)
-            else:
-                transform, low, high, u, rows = through
-                full = np.asarray(transform(self.design(state, low, high, u)), dtype=float)
-                # the fit through the stage starts from this state: kept for it (see transformed_design)
-                self.transformed_at = (np.array(state, dtype=float), full)
-                probe_matrix = full[rows]
+            probe_matrix = probe()
             norms = np.linalg.norm(probe_matrix, axis=0)
             norms[norms == 0] = 1.0
             # only R and the pivots: forming Q would cost more than the whole fit
