@@ -127,6 +127,15 @@ def print_outcome_summary(rows, effects) -> None:
           f"{sum(r['third_extended_over_baseline'] > 1.001 for r in with_effect)} of {len(with_effect)}")
 
 
+def print_misses(rows, describe) -> None:
+    """Print ``describe(row)`` for every seed not named right or whose model delivered predicts the
+    third record worse than the plain fit (ratio above 1.001)."""
+    for r in rows:
+        ratio = r.get("third_extended_over_baseline")
+        if r["outcome"] != "right" or (ratio is not None and ratio > 1.001):
+            print(describe(r))
+
+
 def diagnose_and_score(row: dict, first, second, truth: str, third_rms_pct):
     """Diagnose the record ``first`` = (voltage V, displacement µm, sample rate Hz) validated on
     ``second`` (None: the first record alone) and add to ``row``: ``seconds``, ``named``, ``outcome`` (:func:`named_and_outcome`)

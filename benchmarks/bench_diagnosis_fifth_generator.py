@@ -26,9 +26,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import numpy as np
-
-from bench_common import diagnose_and_score, print_outcome_summary, run_seed_benchmark
+from bench_common import (diagnose_and_score, print_misses, print_outcome_summary, run_seed_benchmark,
+                          settled_rms_pct)
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 if str(TESTS) not in sys.path:
@@ -41,13 +40,8 @@ SETTLE_SHARE = 0.1
 
 def _third_rms_pct(record):
     """``rms(model)``: the model's RMS error (% of range) on the third record, run from rest."""
-    clean = record["clean_um"]
-    settled = slice(int(SETTLE_SHARE * clean.size), None)
-
-    def rms(model):
-        miss = np.asarray(model.simulate(record["voltage_V"]), dtype=float)[settled] - clean[settled]
-        return float(np.sqrt(np.mean(miss**2)) / np.ptp(clean) * 100)
-    return rms
+    settle = int(SETTLE_SHARE * record["clean_um"].size)
+    return lambda model: settled_rms_pct(model, record["voltage_V"], record["clean_um"], settle)
 
 
 def evaluate(seed: int, second_record: bool = True) -> dict:
@@ -75,11 +69,8 @@ def print_rows(rows) -> None:
         ratio = r.get("third_extended_over_baseline")
         print(f"{r['seed']:4d} {r['effect']:26} {r['size_sigma']:6.1f} {' '.join(r['inputs']):64} {r['named']:52} "
               f"{r['outcome']:12} {'-' if ratio is None else f'{ratio:7.3f}':>7} {r['seconds']:4.0f}")
-    for r in rows:
-        ratio = r.get("third_extended_over_baseline")
-        if r["outcome"] != "right" or (ratio is not None and ratio > 1.001):
-            print(f"  seed {r['seed']} ({r['effect']}, {r['outcome']}, voltage ranges {r['ranges_V']}): "
-                  f"{r.get('why', r.get('message', ''))[:400]!r}")
+    print_misses(rows, lambda r: f"  seed {r['seed']} ({r['effect']}, {r['outcome']}, voltage ranges "
+                                 f"{r['ranges_V']}): {r.get('why', r.get('message', ''))[:400]!r}")
 
 
 def _report(rows) -> None:

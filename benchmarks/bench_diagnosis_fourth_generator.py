@@ -27,9 +27,8 @@ import json
 import sys
 from pathlib import Path
 
-import numpy as np
-
-from bench_common import diagnose_and_score, print_outcome_summary, run_seed_benchmark
+from bench_common import (diagnose_and_score, print_misses, print_outcome_summary, run_seed_benchmark,
+                          settled_rms_pct)
 
 TESTS = Path(__file__).resolve().parents[1] / "tests"
 if str(TESTS) not in sys.path:
@@ -42,13 +41,8 @@ SETTLE_S = 0.2
 
 def _third_rms_pct(actuator):
     """``rms(model)``: the model's RMS error (% of range) on the third record, run from rest."""
-    v3, clean = actuator["v3"], actuator["yclean3"]
-    settled = slice(int(round(SETTLE_S * actuator["fs"])), None)
-
-    def rms(model):
-        miss = np.asarray(model.simulate(v3), dtype=float)[settled] - clean[settled]
-        return float(np.sqrt(np.mean(miss**2)) / np.ptp(clean) * 100)
-    return rms
+    settle = int(round(SETTLE_S * actuator["fs"]))
+    return lambda model: settled_rms_pct(model, actuator["v3"], actuator["yclean3"], settle)
 
 
 def evaluate(seed: int, second_record: bool = True) -> dict:
@@ -77,10 +71,8 @@ def print_rows(rows) -> None:
         print(f"{r['seed']:4d} {r['effect']:26} {'/'.join(f'{x:.1f}' for x in r['size_sigma']):16} "
               f"{' '.join(r['inputs']):62} {r['named']:52} {r['outcome']:12} "
               f"{'-' if ratio is None else f'{ratio:7.3f}':>7} {r['seconds']:4.0f}")
-    for r in rows:
-        ratio = r.get("third_extended_over_baseline")
-        if r["outcome"] != "right" or (ratio is not None and ratio > 1.001):
-            print(f"  seed {r['seed']} ({r['effect']}, {r['outcome']}): {r.get('why', r.get('message', ''))[:400]!r}")
+    print_misses(rows, lambda r: f"  seed {r['seed']} ({r['effect']}, {r['outcome']}): "
+                                 f"{r.get('why', r.get('message', ''))[:400]!r}")
 
 
 def _report(rows) -> None:

@@ -20,7 +20,7 @@ from pysim.core.extended import ExtendedModel, plant_parts
 from pysim.core.fileio import staged_directory
 from pysim.core.input_stage import InputStageModel
 from pysim.core.model import HysteresisModel
-from pysim.core.spec import SpecError, load_spec
+from pysim.core.spec import MODEL_TYPES, SpecError, load_spec
 from pysim.core.toolchain import SOURCE_DIR, cache_dir
 from pysim.fmu import binaries
 from pysim.fmu.compile import PLATFORMS, build_binaries
@@ -143,17 +143,15 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
         model = load_spec(spec_or_model)
     except SpecError as exc:
         raise BuildError(str(exc)) from exc
+    source = spec_or_model if not isinstance(spec_or_model, MODEL_TYPES) else f"model {model.name}"
     if isinstance(model, InputStageModel):
         stage = model.stage_summary()
         if not without_input_stage:
-            raise BuildError(f"{spec_or_model if not isinstance(spec_or_model, InputStageModel) else 'the model'}: "
-                             f"MODEL has an input stage before the hysteresis, {stage}, which an FMU cannot "
-                             "hold; build the FMUs of the part after it with --without-input-stage "
+            raise BuildError(f"{source}: MODEL has an input stage before the hysteresis, {stage}, which an FMU "
+                             "cannot hold; build the FMUs of the part after it with --without-input-stage "
                              "(build_fmus(..., without_input_stage=True)), knowing they omit that stage")
         say(f"input stage {stage} left out, as asked: the FMUs are of the part after it")
         model = model.plant
-    source = (spec_or_model if not isinstance(spec_or_model, (HysteresisModel, ExtendedModel, InputStageModel))
-              else f"model {model.name}")
     names = platform_names(platforms)
     kinds = tuple(k for k in KINDS if k in tuple(kinds))
     if not kinds:

@@ -69,6 +69,9 @@ TRANSFORM_STATE_ROUNDS = 3
 #: Pivoted-QR tolerance below which an operator's column counts as a combination of the others
 #: (its weight is then tied to its neighbour's density).
 RANK_TOLERANCE = 1e-7
+#: Pivot of the scaled triangular factor, as a share of the largest, at or below which the least-squares
+#: solve refuses the columns as linearly dependent.
+DEPENDENCE_TOLERANCE = 1e-10
 _BIG = 1e12
 
 
@@ -374,13 +377,26 @@ def _triangular_factor(A, y):
         return R, Q.T @ y
 
 
+def _scaled_factor(A, y):
+    """``(R, c, scale)``: :func:`_triangular_factor` of ``A`` with its columns scaled to unit norm
+    (a zero column left as it is), and the scale."""
+    scale = np.linalg.norm(A, axis=0)
+    scale[scale == 0] = 1.0
+    R, c = _triangular_factor(A / scale, y)
+    return R, c, scale
+
+
+def _dependent_column(R):
+    """The column whose pivot in ``R`` falls to ``DEPENDENCE_TOLERANCE`` of the largest (a
+    combination of the others), or None."""
+    diagonal = np.abs(np.diag(R))
+    which = int(np.argmin(diagonal))
+    return which if diagonal[which] <= DEPENDENCE_TOLERANCE * np.max(diagonal) else None
+
+
 def _columns_singular(A) -> bool:
-    """Whether :func:`solve_lsi` would find the columns of ``A`` linearly dependent (its test, on the
-    columns scaled to unit norm)."""
-    norms = np.linalg.norm(A, axis=0)
-    norms[norms == 0] = 1.0
-    diagonal = np.abs(np.diag(scipy.linalg.qr(A / norms, mode="r")[0]))
-    return bool(diagonal.size) and float(np.min(diagonal)) <= 1e-10 * float(np.max(diagonal))
+    """Whether :func:`solve_lsi` would find the columns of ``A`` linearly dependent (its test)."""
+    return _dependent_column(_scaled_factor(A, np.zeros(A.shape[0]))[0]) is not None
 
 
 def solve_lsi(A, y, G, h, names=None):
@@ -397,12 +413,9 @@ def solve_lsi(A, y, G, h, names=None):
     >>> np.round(theta, 6).tolist(), active
     ([0.5, 0.0], True)
     """
-    scale = np.linalg.norm(A, axis=0)
-    scale[scale == 0] = 1.0
-    R, c = _triangular_factor(A / scale, y)
-    diagonal = np.abs(np.diag(R))
-    if np.min(diagonal) <= 1e-10 * np.max(diagonal):
-        which = int(np.argmin(diagonal))
+    R, c, scale = _scaled_factor(A, y)
+    which = _dependent_column(R)
+    if which is not None:
         what = f" ({names[which]} is a combination of the others)" if names is not None else ""
         raise IdentificationError(
             "the regressors are linearly dependent" + what + ": the input does not excite every operator "
@@ -1116,6 +1129,8 @@ class _Columns:
     def __init__(self, thresholds, cubic: bool, anchor, factor, extras: dict):
         self.r, self.cubic, self.anchor, self.factor = thresholds, cubic, anchor, factor
         self.extra_names = list(extras)
+        # (state, columns through a stage) of tie_dependent's last probe, for the fit to reuse
+        self.transformed_at = None
         self._lay_out()
 
     def _lay_out(self):
@@ -1241,7 +1256,7 @@ class _Columns:
     def transformed_design(self, state, low, high, u, transform) -> np.ndarray:
         """The hysteresis columns of the whole record for operator ``state``, through ``transform``
         (the last probe of :meth:`tie_dependent` when it was of this state and layout)."""
-        kept = getattr(self, "transformed_at", None)
+        kept = self.transformed_at
         if kept is not None and np.array_equal(kept[0], state):
             return kept[1]
         return np.asarray(transform(self.design(state, low, high, u)), dtype=float)
