@@ -60,7 +60,7 @@ import scipy.optimize
 from pysim.core.extended import OutputStages, first_order_section
 from pysim.core.input_stage import apply_input_stage
 from pysim.diagnosis.bouc_wen import N_OPERATORS, bouc_wen_bank, forgotten_from
-from pysim.diagnosis.candidates import creep_time_constants_s, gain_sign, mode_lags
+from pysim.diagnosis.candidates import creep_time_constants_s, gain_sign, longest_delay_samples, mode_lags
 from pysim.diagnosis.input_stages import slew_rate_grid
 from pysim.diagnosis.residuals import record_noise_sigma
 from pysim.diagnosis.rules import DECISIVE_SHARE, NOISE_FRACTION, TIE_FRACTION, UNEXPLAINED_LEVEL
@@ -462,6 +462,17 @@ class GeneralModelParts:
                                                bounds=(lo, hi), method="bounded", options={"xatol": 0.05})
         return self.fit(effect, math.exp(found.x) if found.fun < fits[k].excess_sigma2 else grid[k])
 
+    def _delay_grid_s(self) -> np.ndarray:
+        """Delays (s) tried: from a tenth of a sample to the longest the first record's own delay
+        search reaches (:func:`pysim.diagnosis.candidates.longest_delay_samples` of the shortest
+        part), at most a factor of two apart.  A shorter reach (ten samples, as before) left an
+        independent seed's delay of 20 samples to a rate-dependent hysteresis, which named it."""
+        period = max(self.T)
+        longest = longest_delay_samples(int(min(self.part_s) / period)) * period
+        lowest = 0.1 * min(self.T)
+        count = max(8, int(math.ceil(math.log2(longest / lowest))) + 1)
+        return np.geomspace(lowest, longest, count)
+
     def effects(self, stop_at_noise: bool = False) -> dict:
         """The model alone (``"none"``) and with each effect it holds, as
         :func:`effects_on_both_records` (``stop_at_noise`` likewise)."""
@@ -474,7 +485,7 @@ class GeneralModelParts:
         rates = slew_rate_grid(list(zip(self.v, self.T)), 8)
         fits = {"none": alone,
                 "rate_dependence": self.searched("rate_dependence", time_constants_s),
-                "delay": self.searched("delay", np.geomspace(0.1 * min(self.T), 10.0 * period, 8)),
+                "delay": self.searched("delay", self._delay_grid_s()),
                 "creep": self.fit("creep"),
                 "drift": self.fit("drift"),
                 "rate_dependent_hysteresis": self.searched("rate_dependent_hysteresis", time_constants_s)}

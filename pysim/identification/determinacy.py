@@ -74,10 +74,16 @@ def _columns(result: IdentificationResult, voltage_V, state) -> np.ndarray:
     return np.column_stack(columns)
 
 
-def cycle_prediction_spread(result: IdentificationResult, voltage_V) -> float:
+def cycle_prediction_spread(result: IdentificationResult, voltage_V, column_transform=None, extra_columns=None) -> float:
     """RMS over :func:`probe_cycle` (spanning the fitted samples' input range) of the standard
     deviation of ``result``'s prediction, in units of the record's noise σ, from the information
-    of the samples it was fitted on (``voltage_V``: the record given to the fit).
+    of the samples it was fitted on (``voltage_V``: what the fit's operators saw over the record).
+
+    ``column_transform`` and ``extra_columns`` describe a fit with output stages or regressors of
+    its own (an extension fitted by the diagnosis): ``column_transform(columns)`` runs the
+    hysteresis columns through its stages (the probe's as well), and ``extra_columns`` ((N, m),
+    over the record) are fitted beside them; the probe gives those no part.  A regressor that can
+    stand in for a combination of operators shows here as a spread the plain fit does not have.
 
     Returns ``inf`` when the fitted columns are linearly dependent.
 
@@ -91,13 +97,28 @@ def cycle_prediction_spread(result: IdentificationResult, voltage_V) -> float:
     >>> fit = identify(v, truth.simulate(v) + np.random.default_rng(0).normal(0, 0.05, v.size), n_operators=3)
     >>> cycle_prediction_spread(fit, v) < 0.2
     True
+
+    A regressor that follows the top operator's path closely leaves the weights to the few
+    samples where the two differ:
+
+    >>> top = fit.model.simulate(v, fit.initial_state, return_operators=True)[1][:, 2]
+    >>> look_alike = top + np.random.default_rng(1).normal(0, 1e-3, v.size)
+    >>> cycle_prediction_spread(fit, v, extra_columns=look_alike[:, None]) > 100
+    True
     """
     v = np.asarray(voltage_V, dtype=float).ravel()
     rows = result.fit_slice if result.fit_slice is not None else slice(0, v.size)
-    fitted = _columns(result, v, result.initial_state)[rows]
+    fitted = _columns(result, v, result.initial_state)
     fitted_v = v[rows]
     # the probe starts from rest at the bottom of the range the fit saw
     probe = _columns(result, probe_cycle(float(fitted_v.min()), float(fitted_v.max())), None)
+    if column_transform is not None:
+        fitted, probe = column_transform(fitted), column_transform(probe)
+    if extra_columns is not None:
+        extra = np.asarray(extra_columns, dtype=float).reshape(v.size, -1)
+        fitted = np.column_stack([fitted, extra])
+        probe = np.column_stack([probe, np.zeros((probe.shape[0], extra.shape[1]))])
+    fitted = fitted[rows]
     norms = np.linalg.norm(fitted, axis=0)
     norms[norms == 0.0] = 1.0
     try:
