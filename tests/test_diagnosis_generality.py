@@ -293,6 +293,13 @@ def _excitation_benchmark():
     return bench_diagnosis_excitations
 
 
+def _excitation_third_record_errors(bench, rec, d) -> dict:
+    """RMS error (% of range) of the plain fit and of the model delivered on an excitation benchmark
+    record's third record (never given to the diagnosis), as the benchmark scores it."""
+    return {label: bench._rms_pct(model, rec["test"])
+            for label, model in (("plain", d.baseline.model), ("delivered", d.extended.model))}
+
+
 def test_a_second_record_that_only_measures_the_hysteresis_transfer_does_not_narrow_the_set():
     """Truth (the excitation benchmark's seed 21, records no generator of the tests plays): a plain
     MPI plant with a two-sample delay, 0.85 σ above the noise, seen through band-limited noise; the
@@ -303,7 +310,6 @@ def test_a_second_record_that_only_measures_the_hysteresis_transfer_does_not_nar
     without the delay, had replaced the cross-validated one.  Now the cross-validated set stands,
     and the model delivered still predicts a third input (a multisine) better than the plain fit."""
     bench = _excitation_benchmark()
-    from bench_common import settled_rms_pct
 
     rec = bench.make_records(21)
     assert (rec["kind"], rec["effect"]) == ("band_noise", "delay")
@@ -316,9 +322,7 @@ def test_a_second_record_that_only_measures_the_hysteresis_transfer_does_not_nar
     noise2 = d.validation["noise_um"]
     miss = second["displacement_um"] - d.baseline.validation["prediction_um"]
     assert np.mean(miss[1:-1] ** 2) > 30 * noise2**2          # the trap: the transfer error
-    third, settle = rec["test"], bench.SETTLE_S * bench.SAMPLE_RATE_HZ
-    error = {label: settled_rms_pct(model, third["voltage_V"], third["clean_um"], settle)
-             for label, model in (("plain", d.baseline.model), ("delivered", d.extended.model))}
+    error = _excitation_third_record_errors(bench, rec, d)
     assert error["delivered"] < 0.9 * error["plain"], error
 
 
@@ -2525,7 +2529,6 @@ def test_an_extension_whose_columns_leave_the_richer_weights_undecided_is_delive
     fitted on the baseline's ten, where the record decides it, and predicts the third input no worse
     than the plain fit."""
     bench = _excitation_benchmark()
-    from bench_common import settled_rms_pct
 
     rec = bench.make_records(132)
     assert (rec["kind"], rec["effect"]) == ("square", "creep")
@@ -2541,9 +2544,7 @@ def test_an_extension_whose_columns_leave_the_richer_weights_undecided_is_delive
     assert d.extended.fit.family.n_operators == d.baseline.fit.family.n_operators < d.richer.fit.family.n_operators
     assert fitter.prediction_spread(named.fit) > 100.0 > 2.0 > fitter.prediction_spread(d.extended.fit)
     assert "creep's model delivered is fitted on the plain fit's 10 operators" in d.why, d.why
-    third, settle = rec["test"], bench.SETTLE_S * bench.SAMPLE_RATE_HZ
-    error = {label: settled_rms_pct(model, third["voltage_V"], third["clean_um"], settle)
-             for label, model in (("plain", d.baseline.model), ("delivered", d.extended.model))}
+    error = _excitation_third_record_errors(bench, rec, d)
     assert error["delivered"] <= error["plain"], error
 
 
@@ -2556,7 +2557,6 @@ def test_a_creep_whose_own_model_explains_both_records_keeps_its_own_modes():
     trades with the sensor offset), and that model predicted a third input from rest 3.3 times worse
     than the plain fit.  With its own modes the model delivered predicts it better than the plain fit."""
     bench = _excitation_benchmark()
-    from bench_common import settled_rms_pct
 
     rec = bench.make_records(105)
     assert (rec["kind"], rec["effect"]) == ("sweep_down", "creep")
@@ -2568,7 +2568,5 @@ def test_a_creep_whose_own_model_explains_both_records_keeps_its_own_modes():
     own = d.candidates["creep"]
     assert own.mse_um2 / d.noise_um**2 - 1.0 < 1.0
     assert own.validation["mse_um2"] / d.validation["noise_um"] ** 2 - 1.0 < 3.0
-    third, settle = rec["test"], bench.SETTLE_S * bench.SAMPLE_RATE_HZ
-    error = {label: settled_rms_pct(model, third["voltage_V"], third["clean_um"], settle)
-             for label, model in (("plain", d.baseline.model), ("delivered", d.extended.model))}
+    error = _excitation_third_record_errors(bench, rec, d)
     assert error["delivered"] < error["plain"], error

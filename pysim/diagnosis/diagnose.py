@@ -595,13 +595,17 @@ class _DiagnosisRun:
     def _outranks(self, a, b):
         return advantage_holds(self.y, self.candidates[b].cv_prediction_um, self.candidates[a].cv_prediction_um)
 
-    def _scored_on_both_records(self, option):
-        # two structures of one cause: the second record is held-out data too (the score is kept:
-        # the second record's table scores each model once)
+    def _scored_on_second_record(self, option) -> Evaluation:
+        """``option`` with its score on the second record, made once (the second record's table
+        scores each model once)."""
         if option.validation is None:
             option.validation = score_on_record(option.fit, self.v2, self.y2, self.T, self.train_range,
                                                 train_voltage_V=self.v, history_floor_V=self.options.history_floor_V)
-        return option.mse_um2 * option.validation["mse_um2"]
+        return option
+
+    def _scored_on_both_records(self, option):
+        # two structures of one cause: the second record is held-out data too
+        return option.mse_um2 * self._scored_on_second_record(option).validation["mse_um2"]
 
     def _delivered_by_second_record(self, verdict):
         """(verdict, remark): the member of the set whose model predicts the second record best
@@ -1379,9 +1383,8 @@ class _DiagnosisRun:
         if "first" in self.shape:
             correct_like_the_others(other, self.folds, self.y, self.mask, self.first_memory)
         self._gains(other)
-        if self.validation is not None and other.validation is None:
-            other.validation = score_on_record(other.fit, self.v2, self.y2, self.T, self.train_range,
-                                               train_voltage_V=self.v, history_floor_V=self.options.history_floor_V)
+        if self.validation is not None:
+            self._scored_on_second_record(other)
         n_rich, n_plain = extended.fit.family.n_operators, other.fit.family.n_operators
         self.operators_sentence = (
             f"{cause}'s model delivered is fitted on the plain fit's {n_plain} operators: with {cause}'s columns "
