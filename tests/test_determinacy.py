@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from pysim.core.model import HysteresisModel
-from pysim.identification.determinacy import DETERMINED_SPREAD, cycle_prediction_spread, probe_cycle
+from pysim.identification.determinacy import DETERMINED_SPREAD, cycle_prediction_spread, decided_weights, probe_cycle
 from pysim.identification.identify import identify
 
 TRUTH = HysteresisModel(a1=-2e-6, a2=0.25, thresholds_V=(0.0, 30.0, 60.0, 90.0, 120.0),
@@ -70,3 +70,19 @@ def test_well_excited_record_determines_twice_the_operators():
     v = decaying_cycles(6000)
     y = TRUTH.simulate(v) + np.random.default_rng(1).normal(0.0, 0.05, v.size)
     assert cycle_prediction_spread(identify(v, y, n_operators=20), v) < DETERMINED_SPREAD
+
+
+@pytest.mark.parametrize("step_V", [25.0, 37.5])
+def test_a_staircase_decides_no_more_weights_with_finer_thresholds(step_V):
+    """Between instantaneous steps of ``step_V``, every operator output moves by whole steps: two
+    thresholds between the same multiples of the step give the same column.  At most one weight per
+    step of the span is decided, however many operators are fitted; twice the operators decide no
+    more.  A decaying cycle, which visits every level, decides more with twice the operators."""
+    v = staircase(step_V=step_V)
+    y = TRUTH.simulate(v) + np.random.default_rng(2).normal(0.0, 0.03, v.size)
+    decided = {n: decided_weights(identify(v, y, n_operators=n)) for n in (10, 20)}
+    steps_spanned = int(round(np.ptp(v) / step_V))
+    assert 0 < decided[20] == decided[10] < steps_spanned
+    cycles = decaying_cycles(6000)
+    y = TRUTH.simulate(cycles) + np.random.default_rng(1).normal(0.0, 0.05, cycles.size)
+    assert decided_weights(identify(cycles, y, n_operators=20)) > decided_weights(identify(cycles, y, n_operators=10))

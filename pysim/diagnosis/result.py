@@ -8,7 +8,6 @@ import numpy as np
 
 from pysim.diagnosis.folds import Split
 from pysim.diagnosis.scoring import Evaluation
-from pysim.identification.determinacy import finer_fit_determined
 
 __all__ = ["Diagnosis"]
 
@@ -59,6 +58,13 @@ class Diagnosis:
         The record fitted shows no measurable noise (a simulation:
         :func:`pysim.diagnosis.residuals.is_noise_free`); ``noise_um`` is then
         0.1 % of its range, the lowest noise the diagnosis was measured at.
+    moving_holds : dict or None
+        When the holds of the input moved where nothing else was named and a
+        cause's model took up that motion
+        (:func:`pysim.diagnosis.holds.named_by_moving_holds`): the records,
+        ``holds``, ``dof``, ``t`` (the plain fit's motion in standard errors)
+        and ``motion_sigma2`` (cause and ``"plain"`` -> the motion left, σ²).
+        None otherwise.
     general_model : dict or None
         Without a second record, when the MPI models left the record
         ``unexplained``: what the general rate-independent model fitted on the
@@ -75,6 +81,10 @@ class Diagnosis:
         (:func:`pysim.identification.determinacy.cycle_prediction_spread`);
         the extensions are fitted on the richer operator set only where it is
         determined.  None without a richer model.
+    richer_determined : bool or None
+        Whether the record decides the richer model
+        (:attr:`pysim.diagnosis.candidates.CandidateFitter.richer_determined`: its spread, and
+        more weights of its own than the baseline's).
     """
 
     cause: str
@@ -108,7 +118,9 @@ class Diagnosis:
     artefacts: list = field(default_factory=list)
     noise_free: bool = False
     general_model: dict = None
+    moving_holds: dict = None
     rate_independent_spreads: tuple = None
+    richer_determined: bool = None
 
     @property
     def gain_pct(self) -> float:
@@ -191,7 +203,7 @@ class Diagnosis:
                     **({} if self.rate_independent_spreads is None else {
                         "cycle_prediction_spread_sigma": dict(zip(("baseline", "richer"),
                                                                   self.rate_independent_spreads)),
-                        "richer_determined": finer_fit_determined(*self.rate_independent_spreads)}),
+                        "richer_determined": self.richer_determined}),
                 },
                 "measured_gain_um_per_V": measured_gain,
                 "cross_validation_cause": self.cross_validation_cause,
@@ -201,6 +213,7 @@ class Diagnosis:
                 "record_artefacts": self.artefacts,
                 "validation": self.validation,
                 "general_model": self.general_model,
+                "moving_holds": self.moving_holds,
                 "residual_statistics": _plain(self.statistics),
             },
             "baseline": {"rms_pct": self.baseline.rms_pct, "max_pct": self.baseline.max_pct},

@@ -24,7 +24,7 @@ import numpy as np
 
 from pysim.identification.identify import IdentificationResult
 
-__all__ = ["probe_cycle", "cycle_prediction_spread", "finer_fit_determined", "DETERMINED_SPREAD"]
+__all__ = ["probe_cycle", "cycle_prediction_spread", "decided_weights", "finer_fit_determined", "DETERMINED_SPREAD"]
 
 #: The spread (in noise σ) up to which a record counts as determining a model's prediction of a cycle.
 DETERMINED_SPREAD = 0.5
@@ -49,6 +49,38 @@ def probe_cycle(low_V: float, high_V: float, n_samples: int = 2000) -> np.ndarra
     return np.concatenate(segments + [knots[-1:]])
 
 
+def _weight_owners(result: IdentificationResult) -> list:
+    """Indices of the operators above threshold 0 that carry a weight of their own in ``result``:
+    neither tied to another (``merged_into``) nor left out as not identifiable."""
+    merged = set(int(i) for i in result.merged_into)
+    dropped = set(int(i) for i in result.not_identifiable_operators)
+    r = np.asarray(result.model.thresholds_V, dtype=float)
+    return [i for i in range(r.size) if r[i] > 0 and i not in merged and i not in dropped]
+
+
+def decided_weights(result: IdentificationResult) -> int:
+    """How many operator weights the record decides on its own in ``result``: the operators above
+    threshold 0 neither tied to another nor left out as not identifiable.
+
+    A fit with more operators is richer than another only if this number is larger: on a staircase
+    of a few levels, thresholds finer than the steps differ only in how the ties divide a weight.
+
+    Examples
+    --------
+    A staircase of 50 V steps decides two weights, with three operators or with twelve:
+
+    >>> import numpy as np
+    >>> from pysim.core.model import HysteresisModel
+    >>> from pysim.identification import identify
+    >>> plant = HysteresisModel(a1=0.0, a2=0.3, thresholds_V=(0, 50, 100), weights_um_per_V=(0, 0.1, 0.05))
+    >>> steps = np.repeat([0.0, 50.0, 100.0, 150.0, 100.0, 50.0, 0.0, 100.0, 50.0, 150.0, 0.0], 300)
+    >>> measured = plant.simulate(steps) + np.random.default_rng(0).normal(0, 0.05, steps.size)
+    >>> [decided_weights(identify(steps, measured, n_operators=n)) for n in (3, 12)]
+    [2, 2]
+    """
+    return len(_weight_owners(result))
+
+
 def _columns(result: IdentificationResult, voltage_V, state) -> np.ndarray:
     """The fit's hysteresis columns over ``voltage_V`` from ``state``: ``[u³] u``, one column per
     operator with a weight of its own (tied operators added to their anchor's at their ratio of
@@ -60,11 +92,9 @@ def _columns(result: IdentificationResult, voltage_V, state) -> np.ndarray:
     r = np.asarray(model.thresholds_V, dtype=float)
     spacing = np.diff(np.concatenate(([0.0], r)))
     merged = {int(i): int(a) for i, a in result.merged_into.items()}
-    dropped = set(int(i) for i in result.not_identifiable_operators) - set(merged)
-    owners = [i for i in range(r.size) if r[i] > 0 and i not in merged and i not in dropped]
     columns = [u**3] if model.a1 != 0.0 else []
     columns.append(u)
-    for i in owners:
+    for i in _weight_owners(result):
         column = operators[:, i].copy()
         for j, anchor in merged.items():
             if anchor == i:
