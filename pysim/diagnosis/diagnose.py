@@ -1000,7 +1000,7 @@ class _DiagnosisRun:
         there is an effect's alone; the blocked cross-validation can miss it when the fits absorb the
         effect between the holds (excitations seed 160: creep of 4 % and 0.4 s under a staircase held
         0.23 s a step, 9 σ on the record; creep removed 0.17 σ² out of sample, under the 0.25 asked;
-        the holds moved 0.16 σ², 14 standard errors, and creep's model left none of it).  A cause is
+        the holds moved 0.16 σ², 8 standard errors, and creep's model left none of it).  A cause is
         weighed only where its model is no worse out of sample than either rate-independent model,
         nor on the second record than the plain fit by ``NOISE_FRACTION`` σ².  A ``none`` that the
         holds standing still gave, or that the general model gave in place of a named cause, stands.

@@ -301,7 +301,7 @@ def named_by_moving_holds(held, causes, predictions):
     within a quarter of the motion of the one that leaves least (the holds do not tell those
     apart).  Creep of a few tenths of a second that a staircase holds 0.23 s at a time moves
     0.16 σ² there, over 15 500 degrees of freedom: below what the blocked cross-validation names
-    (the fits absorb most of it between the holds), and fourteen standard errors above no motion.
+    (the fits absorb most of it between the holds), and eight standard errors above no motion.
 
     Parameters
     ----------
