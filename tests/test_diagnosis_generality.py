@@ -1654,10 +1654,14 @@ def test_a_look_alike_within_the_margin_joins_the_set_even_if_its_own_removal_di
                  s, {"rate_dependence": 1, "rate_dependent_hysteresis": 1, "slew_limit": 1},
                  consistent={"rate_dependence": False, "rate_dependent_hysteresis": False, "slew_limit": False})
     assert lag["causes"] == ("rate_dependence", "rate_dependent_hysteresis")
-    # and one whose advantage lives only where the rate-independent models extrapolate states
+    # where the operators stay in states the training blocks showed, the effect is asked to remain, not
+    # each look-alike: one that removes nothing there joins while creep removes something
     seen = {"creep": 0.13, "delay": -0.01, "rate_dependence": 0.12, "drift": 0.0, "slew_limit": 0.0}
     assert set(decide(mse, 1.167, 1.167, s, complexity, consistent=consistent,
-                      removed_where_states_seen=seen)["causes"]) == {"creep", "rate_dependence"}
+                      removed_where_states_seen=seen)["causes"]) == {"creep", "delay", "rate_dependence"}
+    # and where creep's advantage vanishes there, nothing is named
+    assert decide(mse, 1.167, 1.167, s, complexity, consistent=consistent,
+                  removed_where_states_seen={**seen, "creep": 0.0})["cause"] == "none"
     # with nothing significant, nothing joins anything
     assert decide(mse, 1.167, 1.167, s, complexity, consistent={c: False for c in mse})["cause"] == "none"
 

@@ -148,9 +148,9 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
     # within the margin that removes enough to be significant also explains it, even where its own
     # removal failed the test across the record (a 1.5 σ delay on minor loops, excitations seed 203:
     # creep of two modes of 1.5 and 4.4 ms held its removal, the delay removed 0.10 σ² against
-    # creep's 0.12 and did not), but not only where the rate-independent models extrapolate states
-    joins = [c for c in mse if c not in vetoed and large_enough[c]
-             and (removed_where_states_seen is None or removed_where_states_seen.get(c, math.inf) > 0.0)]
+    # creep's 0.12 and did not); as for the significant ones, where the states were seen is asked of
+    # the effect, not of each look-alike
+    joins = [c for c in mse if c not in vetoed and large_enough[c]]
     ties = sorted((c for c in joins if mse[c] - mse[best] <= margin), key=lambda c: mse[c])
     share = improvement / excess if excess > 0 else 1.0
     if excess >= UNEXPLAINED_LEVEL * s2 and share < UNEXPLAINED_SHARE:
