@@ -2611,6 +2611,29 @@ def test_creep_that_moves_the_holds_of_a_staircase_is_named_by_them():
     assert error["delivered"] < 0.7 * error["plain"], error
 
 
+def test_a_richer_set_the_record_does_not_decide_is_no_base_even_beside_an_undecided_baseline():
+    """Truth (the excitation benchmark's seed 201, first record alone): a two-sample delay after an
+    MPI plant, 0.74 σ on band-limited noise over the full range.  Neither plain fit is decided by the
+    record: ten operators predict a full-range cycle to several σ, twenty to less but still above
+    DETERMINED_SPREAD.  Twenty had been the base because they were the less loose of the two, and the
+    delay's model on them predicted a multisine 2.6 times worse than the plain fit; where the record
+    decides neither set, the simpler one is the base."""
+    from pysim.identification.determinacy import DETERMINED_SPREAD
+
+    bench = _excitation_benchmark()
+    rec = bench.make_records(201)
+    assert (rec["kind"], rec["effect"]) == ("band_noise", "delay")
+    first = rec["train"]
+    d = diagnose(first["voltage_V"], first["displacement_um"], bench.SAMPLE_RATE_HZ)
+    plain_spread, richer_spread = d.rate_independent_spreads
+    assert plain_spread > richer_spread > DETERMINED_SPREAD, d.rate_independent_spreads
+    assert d.richer_determined is False
+    assert "delay" in d.causes, d.why
+    assert all(ev.fit.family.n_operators == d.baseline.fit.family.n_operators for ev in d.candidates.values())
+    error = _excitation_third_record_errors(bench, rec, d)
+    assert error["delivered"] < 1.2 * error["plain"], error
+
+
 def test_a_delay_near_the_noise_stays_in_the_set_its_look_alike_named():
     """Truth (the excitation benchmark's seed 203, first record alone): a delay of two samples after a
     perturbed MPI plant, 1.5 σ on minor loops about mid-range.  Out of sample creep (two modes of a few
