@@ -2632,6 +2632,9 @@ def test_a_richer_set_the_record_does_not_decide_is_no_base_even_beside_an_undec
     assert all(ev.fit.family.n_operators == d.baseline.fit.family.n_operators for ev in d.candidates.values())
     error = _excitation_third_record_errors(bench, rec, d)
     assert error["delivered"] < 1.2 * error["plain"], error
+    # and the user is told that no model of this record predicts another input well
+    assert "The record does not decide how a rate-independent model predicts a new input" in d.why, d.why
+    assert error["plain"] > 5 * 100 * bench.NOISE_SHARE               # as the sentence says: loosely
 
 
 def test_a_delay_near_the_noise_stays_in_the_set_its_look_alike_named():

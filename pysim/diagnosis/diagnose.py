@@ -1624,6 +1624,16 @@ class _DiagnosisRun:
                     f"simulation gives): every error is weighed against {100 * VALIDATED_NOISE_FRACTION:g} % of the "
                     "range instead, the lowest noise the diagnosis was measured at, so a smaller effect is not seen; "
                     "add the sensor's noise to a simulated record to weigh it against that")
+        spreads = self.fitter.rate_independent_spreads
+        if not self.unidentified and spreads is not None and min(spreads) > DETERMINED_SPREAD:
+            # neither operator set is decided, so no model of this record carries its hysteresis part to
+            # a new input well (excitations seed 201, band-limited noise: the plain fit predicts a
+            # multisine at 2.8 % of range with a noise of 0.2 %), whatever the verdict
+            why += (f". The record does not decide how a rate-independent model predicts a new input: a "
+                    f"full-range cycle with minor loops is predicted to {spreads[0]:.2g} σ by the plain fit and "
+                    f"{spreads[1]:.2g} σ by the richer one (decided: {DETERMINED_SPREAD:g} σ or less), so every "
+                    "model of it, the one delivered too, predicts other inputs loosely; `pysim excite RECORD --out "
+                    "excitation.csv` writes a record that starts with a slow full-range cycle, to play and diagnose")
         if cause == "none" and not any(holds_after_a_step(x, self.sample_rate_hz) for x in
                                        ((self.v,) if not self.has_second else (self.v, self.v2))):
             # a moving input lets the hysteresis fit absorb slow creep (third generator's seed 197: creep of
