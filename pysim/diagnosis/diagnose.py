@@ -174,6 +174,12 @@ from pysim.identification.identify import (IdentificationError, checked_history_
 
 __all__ = ["diagnose", "Diagnosis"]
 
+#: Both rate-independent fits predicting a full-range cycle more loosely than this (noise σ of the
+#: record, :func:`pysim.identification.determinacy.cycle_prediction_spread`) means the record does not
+#: decide that prediction to its own noise, and ``why`` says that every model of it predicts other
+#: inputs loosely.
+LOOSE_SPREAD = 1.0
+
 #: Why the records' roles swap when the first record shows no effect (or one only in its steps).
 _NO_EFFECT_SHOWN = ("{first} shows no effect beyond its noise, and {second} may show one that the input of {first} "
                     "does not excite")
@@ -1625,15 +1631,17 @@ class _DiagnosisRun:
                     "range instead, the lowest noise the diagnosis was measured at, so a smaller effect is not seen; "
                     "add the sensor's noise to a simulated record to weigh it against that")
         spreads = self.fitter.rate_independent_spreads
-        if not self.unidentified and spreads is not None and min(spreads) > DETERMINED_SPREAD:
-            # neither operator set is decided, so no model of this record carries its hysteresis part to
-            # a new input well (excitations seed 201, band-limited noise: the plain fit predicts a
-            # multisine at 2.8 % of range with a noise of 0.2 %), whatever the verdict
+        if not self.unidentified and spreads is not None and min(spreads) > LOOSE_SPREAD:
+            # neither operator set predicts a new input to the record's own noise, so no model of this
+            # record carries its hysteresis part to one well (excitations seed 201, band-limited noise,
+            # 7.6 and 3.8 σ: the plain fit predicts a multisine at 2.8 % of range with a noise of 0.2 %),
+            # whatever the verdict; just above DETERMINED_SPREAD it still does (a square wave, seed 212,
+            # 0.78 and 0.52 σ: 0.26 %)
             why += (f". The record does not decide how a rate-independent model predicts a new input: a "
                     f"full-range cycle with minor loops is predicted to {spreads[0]:.2g} σ by the plain fit and "
-                    f"{spreads[1]:.2g} σ by the richer one (decided: {DETERMINED_SPREAD:g} σ or less), so every "
-                    "model of it, the one delivered too, predicts other inputs loosely; `pysim excite RECORD --out "
-                    "excitation.csv` writes a record that starts with a slow full-range cycle, to play and diagnose")
+                    f"{spreads[1]:.2g} σ by the richer one (its own noise: 1 σ), so every model of it, the one "
+                    "delivered too, predicts other inputs loosely; `pysim excite RECORD --out excitation.csv` "
+                    "writes a record that starts with a slow full-range cycle, to play and diagnose")
         if cause == "none" and not any(holds_after_a_step(x, self.sample_rate_hz) for x in
                                        ((self.v,) if not self.has_second else (self.v, self.v2))):
             # a moving input lets the hysteresis fit absorb slow creep (third generator's seed 197: creep of
