@@ -1019,7 +1019,7 @@ class _DiagnosisRun:
         voters = self._voting_holds()
         if not voters:
             return
-        reference = min(self.baseline.mse_um2, self.richer.mse_um2 if self.richer is not None else math.inf)
+        reference = self.ref_mse             # the better rate-independent model's error out of sample
         second = None if validation is None or self.baseline.validation is None else (
             self.baseline.validation["mse_um2"] + NOISE_FRACTION * validation["noise_um"] ** 2)
         weighed = [c for c, ev in candidates.items()

@@ -111,12 +111,11 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
     for cause, value in mse.items():
         removed = ref - value
         gain = rms_gain_pct(value, ref)
+        beyond_noise = removed >= NOISE_FRACTION * s2 and gain >= MIN_GAIN_PCT
         near_noise = removed >= NEAR_NOISE_FRACTION * s2 and removed >= 0.5 * excess
         # large enough to be significant, but for the test that the removal holds across the record
-        large_enough[cause] = bool((removed >= NOISE_FRACTION * s2 and gain >= MIN_GAIN_PCT)
-                                   or (near_noise and consistent is not None))
-        significant[cause] = bool((removed >= NOISE_FRACTION * s2 and gain >= MIN_GAIN_PCT)
-                                  or (near_noise and consistent and consistent.get(cause)))
+        large_enough[cause] = bool(beyond_noise or (near_noise and consistent is not None))
+        significant[cause] = bool(beyond_noise or (near_noise and consistent and consistent.get(cause)))
     # the check asks whether there is an effect at all, not which one: when one significant cause
     # keeps an advantage where the states were seen, its look-alikes stay (on a 1.5 σ input low-pass,
     # independent seed 214, the truth itself removed nothing there while the delay did)
