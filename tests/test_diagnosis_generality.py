@@ -676,6 +676,29 @@ def test_an_effect_that_only_two_large_steps_show_is_named_by_the_responses_to_t
     assert d.cause == "slew_limit" and d.causes == ("slew_limit",), d.why
 
 
+def test_a_stage_that_takes_the_steps_is_named_though_one_window_gains_a_little_error():
+    """Truth (the independent generator's pair 911): a 34 V/ms amplifier slew limit on steps and
+    sines after an unknown history at 1 kHz; the limit bites only in the samples after two steps.
+    Predicted with each step left out of its fit, the slew limit (found within 1 %) removes nearly
+    all of the 242 σ² the rate-independent model leaves in the five windows, and leaves 0.46 σ²
+    more in one of them.  Requiring every window to stay within the noise margin named nothing;
+    what it adds there is 0.04 % of what it removes, and it is named, alone or with the second
+    record, and predicts the third record (a sine) no worse than the plain fit."""
+    import independent_records
+
+    pair = independent_records.make_pair(911)
+    truth = pair.truth.effect_parameters["slew_rate_V_per_ms"]
+    assert pair.truth.effect == "slew_limit"
+    train = pair.train
+    alone = diagnose(train.voltage_V, train.displacement_um, train.sample_rate_hz)
+    assert alone.causes == ("slew_limit",) and "steps into holds" in alone.why, alone.why
+    evidence = alone.as_json()["evidence"]["steps"]
+    assert evidence["windows"] == 5 and evidence["removed_share"]["slew_limit"] >= 0.9, evidence
+    assert abs(alone.extended.fit.parameters["rate_V_per_ms"] / truth - 1) < 0.05, alone.extended.fit.parameters
+    assert _third_record_rms(pair, alone.extended.model) <= _third_record_rms(pair, alone.baseline.model)
+    assert _validated(pair).causes == ("slew_limit",)
+
+
 def test_a_stage_that_fits_a_lone_step_where_the_out_of_sample_winner_cannot_leads_the_set():
     """Truth (the independent generator's pair 751): a 75 V/ms amplifier slew limit.  The record,
     holds and sines from rest at 5 kHz, has one 147 V step into a hold.  Left out of the fit, that

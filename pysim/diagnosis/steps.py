@@ -36,7 +36,8 @@ def shown_by_steps(fitter: CandidateFitter, baseline, richer, candidates: dict, 
     candidate in ``DYNAMICS``.  When the rate-independent model leaves at
     least ``UNEXPLAINED_LEVEL`` σ² of mean-square error there, a candidate
     is named that removes at least ``DECISIVE_SHARE`` of that excess, makes
-    no window worse by the noise margin, and does not raise the blocked
+    no window worse by the noise margin (or, summed over the samples, by less
+    than ``TIE_FRACTION`` of what it removes in the others), and does not raise the blocked
     cross-validated error by the noise margin; the candidates within the tie
     margin of the best are named with it, the simplest first.  Every
     structure of a cause is tried (a lag and a resonance, which the blocks
@@ -62,6 +63,18 @@ def shown_by_steps(fitter: CandidateFitter, baseline, richer, candidates: dict, 
     if excess < UNEXPLAINED_LEVEL * s2:
         return None
     ref_cv = min(baseline.mse_um2, richer.mse_um2)
+    lengths = np.array([stop - first for first, stop in windows], dtype=float)
+
+    def spares_the_windows(change):
+        """No window made worse by the noise margin, or what the windows made worse gain (squared error
+        summed over their samples) is under ``TIE_FRACTION`` of what the others lose.  A proportion, not
+        an absolute margin: independent seed 911, a 34 V/ms slew limit found within 1 %, removed
+        1155 σ² and 28 σ² in the windows of two steps and left 0.46 σ² more in a third, one of five
+        118-sample windows (0.04 % of what it removed), and nothing was named."""
+        if np.all(change < NOISE_FRACTION * s2):
+            return True
+        return float(np.maximum(change, 0.0) @ lengths) <= TIE_FRACTION * float(np.maximum(-change, 0.0) @ lengths)
+
     mse, predictions, removed, structures = {}, {}, {}, {}
     for c in dynamics:
         # every structure of the cause (a lag and a resonance: the blocks may not tell them apart)
@@ -69,7 +82,7 @@ def shown_by_steps(fitter: CandidateFitter, baseline, richer, candidates: dict, 
             if ev.mse_um2 > ref_cv + NOISE_FRACTION * s2:
                 continue            # worse where the blocked cross-validation scores
             prediction, errors, value = window_errors(ev)
-            if (ref_mse - value >= DECISIVE_SHARE * excess and np.all(errors - per_window < NOISE_FRACTION * s2)
+            if (ref_mse - value >= DECISIVE_SHARE * excess and spares_the_windows(errors - per_window)
                     and value < mse.get(c, math.inf)):
                 mse[c], predictions[c], structures[c] = value, prediction, ev
                 removed[c] = (ref_mse - value) / excess
