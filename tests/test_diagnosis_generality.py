@@ -699,6 +699,23 @@ def test_a_stage_that_takes_the_steps_is_named_though_one_window_gains_a_little_
     assert _validated(pair).causes == ("slew_limit",)
 
 
+def test_a_stage_that_takes_one_step_and_spoils_another_is_not_named_by_the_steps():
+    """Truth (the independent generator's pair 607): a 75 V/ms amplifier slew limit, two steps into
+    holds.  Left out of the fit, a resonance takes 98 % of the full-range step's 1697 σ² and leaves
+    the other step 40 σ² worse, ten times what the rate-independent model leaves there: a wrong
+    shape, however small beside what it takes.  It is not named from the steps (the slew limit,
+    which left out of the fit predicts the full-range step poorly, is not either)."""
+    import independent_records
+
+    pair = independent_records.make_pair(607)
+    assert pair.truth.effect == "slew_limit"
+    train = pair.train
+    d = diagnose(train.voltage_V, train.displacement_um, train.sample_rate_hz)
+    assert "rate_dependence" not in d.causes, d.why
+    steps = d.as_json()["evidence"].get("steps")
+    assert not steps or "rate_dependence" not in steps["removed_share"], steps
+
+
 def test_a_stage_that_fits_a_lone_step_where_the_out_of_sample_winner_cannot_leads_the_set():
     """Truth (the independent generator's pair 751): a 75 V/ms amplifier slew limit.  The record,
     holds and sines from rest at 5 kHz, has one 147 V step into a hold.  Left out of the fit, that

@@ -50,8 +50,8 @@ Procedure (``diagnose``):
    few samples after large steps, which the median over the blocks never
    weighs.  Where the better rate-independent model leaves at least
    ``UNEXPLAINED_LEVEL`` σ² there, a candidate of ``DYNAMICS`` that removes
-   ``DECISIVE_SHARE`` of it, worsens no step (beyond the noise margin, or a tenth
-   of what it removes) and not the blocked score is
+   ``DECISIVE_SHARE`` of it, worsens no step (beyond the noise margin; or beyond
+   σ² and by a tenth of what it removes) and not the blocked score is
    named (ties as above); a second record tests it on its own
    rate-independent fit (:func:`_raised_on_own_hysteresis`).
 5. **Second record** (``validate=``): every model fitted on the first record is
