@@ -198,3 +198,36 @@ def test_a_drift_is_held_after_the_record_it_was_fitted_on():
     assert actuator["v3"].size > 1.5 * actuator["v1"].size
     plain, delivered = (_third_record_rms_pct(m, actuator) for m in (d.baseline.model, d.extended.model))
     assert delivered < 0.8 * plain
+
+
+def test_what_a_staircase_leaves_in_the_levels_of_its_held_out_holds_names_nothing():
+    """Seed 224 given alone: no effect, a staircase after a history.  Held out block by block, the plain
+    fit leaves 3.0 σ² in the median block, and an input low-pass and a slew limit removed 0.9 and 0.7 σ²
+    of it; they were named.  All of that lies in the levels of the held-out holds, which every
+    rate-independent fit extrapolates from the other blocks: with each hold's level taken out of every
+    model's residual, the plain fit leaves the noise and no candidate less, so nothing is named.  Seed
+    232, a true slew limit (2.2 σ) on a staircase after a history, draws its ramps after the steps,
+    which no level takes out: it is still named."""
+    actuator = _actuator(224)
+    d = diagnose(actuator["v1"], actuator["y1"], actuator["fs"])
+    assert d.cause == "none", d.why
+    assert "levels of held-out holds" in d.why
+    removed = [ev.removed_beside_hold_levels_sigma2 for ev in d.candidates.values()]
+    assert max(removed) < 0.03
+    reported = d.as_json()["evidence"]["candidates"]
+    assert [reported[c]["mse_removed_beside_hold_levels_over_noise"] for c in d.candidates] == removed
+    actuator = _actuator(232)
+    d = diagnose(actuator["v1"], actuator["y1"], actuator["fs"])
+    assert d.cause == "slew_limit", d.why
+    assert d.candidates["slew_limit"].removed_beside_hold_levels_sigma2 > 1.0
+
+
+def test_a_staircase_fitted_in_turn_after_a_second_record_names_nothing_from_its_hold_levels():
+    """Seed 229: no effect; band-limited noise after a history, then a staircase after a history as the
+    second record.  The staircase reaches further, the roles swap and it is fitted in turn: its held-out
+    holds' levels gave creep, drift, a slew limit and an input low-pass the same advantage, and all four
+    were named.  With the levels taken out none keeps any, and nothing is named."""
+    actuator = _actuator(229)
+    fs = actuator["fs"]
+    d = diagnose(actuator["v1"], actuator["y1"], fs, validate=(actuator["v2"], actuator["y2"], fs))
+    assert d.cause == "none" and d.causes == (), d.why

@@ -7,7 +7,9 @@ import scipy.signal
 
 from independent_records import osp_operators
 
-from pysim.diagnosis.holds import named_by_moving_holds, voting_holds
+from pysim.diagnosis.folds import make_folds
+from pysim.diagnosis.holds import (named_by_moving_holds, staircase_holds, voting_holds,
+                                   without_hold_levels)
 
 THRESHOLDS_V = np.array([0.0, 20.0, 40.0, 60.0, 80.0])
 WEIGHTS_UM_PER_V = np.array([0.3, 0.08, 0.06, 0.04, 0.02])
@@ -78,3 +80,55 @@ def test_creep_that_moves_the_holds_is_named_and_its_model_takes_up_the_motion()
     assert causes == ("creep",)
     assert t > 3.0 and motions["plain"] > 0.08
     assert abs(motions["creep"]) < 0.1 * motions["plain"]
+
+
+def _slew_limited(v, max_step_V):
+    """The input as an amplifier that moves at most ``max_step_V`` per sample delivers it."""
+    out = np.empty_like(v)
+    out[0] = v[0]
+    for k in range(1, v.size):
+        out[k] = out[k - 1] + np.clip(v[k] - out[k - 1], -max_step_V, max_step_V)
+    return out
+
+
+def test_hold_levels_taken_out_leave_the_noise_of_any_rate_independent_model_and_the_ramps_of_a_slew():
+    """On a staircase, every rate-independent model is constant in a hold, so with each hold's level
+    taken out (block by block) its residual in the holds is the noise about the hold's mean, whatever its loop
+    shape: a model with no hysteresis at all, a straight line, scores the same as the truth.  Behind a
+    slew limit the actuator ramps after each step: the rate-independent models keep that error, the
+    slew-limited model does not."""
+    rng = np.random.default_rng(21)
+    v = _staircase(rng, steps=30, hold=200)
+    folds = make_folds(v)
+    runs = staircase_holds(v, folds)
+    assert runs is not None and len(runs) >= 25
+    sigma = 0.02
+    truth = _rate_independent(v)
+    y = truth + rng.normal(0.0, sigma, v.size)
+    # (the first level is reached without a step: not a hold, and not corrected)
+    scored = np.intersect1d(np.concatenate([s for _, s in folds]),
+                            np.concatenate([np.arange(first, stop) for first, stop in runs]))
+
+    def mean_square(prediction):
+        return float(np.mean((y - without_hold_levels(y, prediction, runs, folds))[scored] ** 2)) / sigma**2
+
+    line = np.polyval(np.polyfit(v, y, 1), v)
+    assert np.mean((y - line)[scored] ** 2) / sigma**2 > 100.0          # far off before
+    assert abs(mean_square(line) - mean_square(truth)) < 0.05 and mean_square(truth) < 1.05
+
+    slewed = _rate_independent(_slew_limited(v, 4.0))                   # ramps of up to 25 samples
+    y = slewed + rng.normal(0.0, sigma, v.size)
+    assert mean_square(truth) > 5.0 and mean_square(line) > 5.0
+    assert mean_square(slewed) < 1.05
+
+
+def test_a_record_is_a_staircase_only_when_its_holds_hold_most_of_what_is_scored():
+    rng = np.random.default_rng(22)
+    stairs = _staircase(rng, steps=12, hold=300)
+    assert staircase_holds(stairs, make_folds(stairs)) is not None
+    sine = 50.0 + 50.0 * np.sin(np.arange(3600) / 60.0)
+    assert staircase_holds(sine, make_folds(sine)) is None
+    # five holds of 300 samples among 6000 samples of sine: holds, but not a staircase
+    mixed = np.concatenate([sine[:2000], _staircase(rng, steps=6, hold=300), sine[2000:]])
+    assert staircase_holds(mixed, make_folds(mixed)) is None
+    assert len(voting_holds([("mixed", mixed, mixed, mixed, 0.05)])) == 1

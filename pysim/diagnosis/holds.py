@@ -17,7 +17,12 @@ rules follow:
   model may still carry the hysteresis to a new input better);
 * :func:`named_by_moving_holds` -- where nothing else is named but the holds
   move beyond what their noise allows, the cause whose model takes up that
-  motion is named: no rate-independent actuator can move there.
+  motion is named: no rate-independent actuator can move there;
+* :func:`staircase_holds` and :func:`without_hold_levels` -- on a record made
+  mostly of holds, a model's level in each hold is where the rate-independent
+  fits extrapolate (a held-out hold at a level its training blocks never
+  reached), so a cause must also remove error with each hold's level taken out
+  of every model's residual (:func:`pysim.diagnosis.rules.decide`).
 """
 from __future__ import annotations
 
@@ -30,7 +35,8 @@ from pysim.diagnosis.folds import hold_runs
 from pysim.diagnosis.residuals import motion_within_holds
 from pysim.diagnosis.rules import NEAR_NOISE_FRACTION, NEAR_NOISE_T, NOISE_FRACTION
 
-__all__ = ["MIN_HOLDS", "MIN_HOLD_SAMPLES", "MIN_HOLD_DOF", "HeldRecord", "voting_holds", "still_holds",
+__all__ = ["MIN_HOLDS", "MIN_HOLD_SAMPLES", "MIN_HOLD_DOF", "STAIRCASE_SHARE", "HeldRecord", "voting_holds",
+           "still_holds", "staircase_holds", "without_hold_levels",
            "still_sentence", "contradicted_by_holds", "contradicted_sentence", "preferred_by_holds",
            "named_by_moving_holds", "moving_holds_sentence"]
 
@@ -40,6 +46,10 @@ __all__ = ["MIN_HOLDS", "MIN_HOLD_SAMPLES", "MIN_HOLD_DOF", "HeldRecord", "votin
 MIN_HOLDS = 5
 MIN_HOLD_SAMPLES = 10
 MIN_HOLD_DOF = 400
+
+#: A record is a staircase when its holds (MIN_HOLDS or more, each of MIN_HOLD_SAMPLES) hold at least
+#: this share of the samples its cross-validation scores.
+STAIRCASE_SHARE = 0.5
 
 #: Causes a hold cannot contradict: a slow trend moves a few hundredths of its amplitude within a
 #: hold, below what the holds' noise lets the motion measure tell.
@@ -97,6 +107,92 @@ def voting_holds(records) -> list:
             if dof >= MIN_HOLD_DOF and math.isfinite(excess):
                 found.append(HeldRecord(index, name, runs, dof, excess, noise_um, y, np.asarray(plain, dtype=float)))
     return found
+
+
+def staircase_holds(voltage_V, folds) -> list | None:
+    """The holds of a record that is a staircase, else None.
+
+    Parameters
+    ----------
+    voltage_V : array_like
+    folds : list of (train, scored)
+        The blocked cross-validation folds (:func:`pysim.diagnosis.folds.make_folds`).
+
+    Returns
+    -------
+    list of (first, stop) or None
+        :func:`pysim.diagnosis.folds.hold_runs` of ``MIN_HOLD_SAMPLES`` samples or more, when
+        there are ``MIN_HOLDS`` of them and they hold ``STAIRCASE_SHARE`` of the scored samples.
+
+    Examples
+    --------
+    >>> v = np.repeat([0.0, 80.0, 20.0, 100.0, 50.0, 10.0], 200)
+    >>> folds = [(None, np.arange(200, 700)), (None, np.arange(700, 1200))]
+    >>> staircase_holds(v, folds)
+    [(200, 400), (400, 600), (600, 800), (800, 1000), (1000, 1200)]
+    >>> staircase_holds(np.sin(np.arange(1200) / 40.0), folds) is None
+    True
+    """
+    v = np.asarray(voltage_V, dtype=float)
+    runs = hold_runs(v, MIN_HOLD_SAMPLES)
+    if len(runs) < MIN_HOLDS:
+        return None
+    scored = np.zeros(v.size, dtype=bool)
+    for _, s in folds:
+        scored[s] = True
+    held = np.zeros(v.size, dtype=bool)
+    for first, stop in runs:
+        held[first:stop] = True
+    n_scored = int(scored.sum())
+    return runs if n_scored and (held & scored).sum() >= STAIRCASE_SHARE * n_scored else None
+
+
+def without_hold_levels(y, prediction_um, runs, folds) -> np.ndarray:
+    """``prediction_um`` moved so that its residual has mean zero in every hold, block by block.
+
+    A rate-independent model is constant in a hold, and its error there is the level it reaches:
+    on a held-out block of a staircase that level is extrapolated from the other blocks' levels
+    (weights of operators a block alone moves are free elsewhere).  Taking each hold's mean out
+    of the residual -- separately for each held-out block a hold reaches into, whose predictions
+    come from different fits -- leaves what an effect draws there: the ramp of a slew limit, the
+    settling of a lag or a delay after the step, creep within the hold, and everything outside
+    the holds.  Drift keeps only the part of its trend that moves within a hold.
+
+    Parameters
+    ----------
+    y, prediction_um : array_like
+        Measured and predicted displacement (µm); the prediction may be NaN where it does not predict.
+    runs : list of (first, stop)
+        The holds (:func:`staircase_holds`).
+    folds : list of (train, scored)
+
+    Returns
+    -------
+    numpy.ndarray
+        The moved prediction (µm).
+
+    Examples
+    --------
+    >>> y = np.repeat([1.0, 5.0, 2.0], 100)
+    >>> y[100:103] = [2.0, 3.0, 4.0]                            # a ramp after the second step
+    >>> p = np.repeat([1.5, 4.0, 2.0], 100)                     # levels off in two holds
+    >>> folds = [(None, np.arange(0, 150)), (None, np.arange(150, 300))]
+    >>> r = y - without_hold_levels(y, p, [(0, 100), (100, 200), (200, 300)], folds)
+    >>> float(np.abs(r[:100]).max()), float(np.abs(r[150:]).max()), np.round(r[100:104], 2)
+    (0.0, 0.0, array([-2.88, -1.88, -0.88,  0.12]))
+    """
+    y = np.asarray(y, dtype=float)
+    residual = y - np.asarray(prediction_um, dtype=float)
+    block = np.full(y.size, -1)
+    for index, (_, scored) in enumerate(folds):
+        block[scored] = index
+    for first, stop in runs:
+        for index in set(block[first:stop].tolist()) - {-1}:
+            where = first + np.flatnonzero(block[first:stop] == index)
+            finite = where[np.isfinite(residual[where])]
+            if finite.size:
+                residual[where] -= residual[finite].mean()
+    return y - residual
 
 
 def still_holds(voters) -> list:

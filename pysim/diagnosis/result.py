@@ -161,6 +161,7 @@ class Diagnosis:
                 "heldout_rms_pct": ev.rms_pct, "heldout_max_pct": ev.max_pct, "gain_pct": ev.gain_pct,
                 "mse_removed_over_noise": ev.excess_over_noise, "significant": ev.significant,
                 "mse_removed_where_states_seen_over_noise": _plain(ev.removed_where_states_seen_sigma2),
+                "mse_removed_beside_hold_levels_over_noise": _plain(ev.removed_beside_hold_levels_sigma2),
                 "train_rms_pct": ev.train_rms_pct, "parameters": _plain(ev.fit.parameters),
                 "reason": self.reasons.get(cause, ""), "gain_vs_rate_independent_pct": ev.gain_vs_richer_pct,
                 "condition_number": ev.fit.result.condition_number if ev.fit.result else None,

@@ -47,8 +47,10 @@ DECISIVE_SHARE = 0.75
 #: a delay, the ramp of a slew limit, an input low-pass), also on a second record that cannot
 #: identify the hysteresis itself.
 DYNAMICS = ("rate_dependence", "delay", "rate_dependent_hysteresis", "slew_limit")
-#: Where every operator stays in the states its training blocks showed, a cause must remove at least
-#: this share of what it removes over the whole record (:func:`decide`'s ``removed_where_states_seen``).
+#: Where every operator stays in the states its training blocks showed -- and, on a staircase, with each
+#: hold's level taken out of every model's residual -- a cause must remove at least this share of what it
+#: removes over the whole record (:func:`decide`'s ``removed_where_states_seen`` and
+#: ``removed_beside_hold_levels``).
 SEEN_SHARE = 0.03
 
 
@@ -62,7 +64,8 @@ _OUTSIDE = (" (an effect it does not hold, or a hysteresis that no MPI model can
 
 
 def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um: float, complexity: dict,
-           consistent: dict | None = None, outranks=None, removed_where_states_seen: dict | None = None):
+           consistent: dict | None = None, outranks=None, removed_where_states_seen: dict | None = None,
+           removed_beside_hold_levels: dict | None = None):
     """Name the cause from out-of-sample mean-square errors (µm²).
 
     Parameters
@@ -95,12 +98,20 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
         advantage that lives only where the
         rate-independent models extrapolate operator states is theirs to
         lose, not an effect.
+    removed_beside_hold_levels : dict, optional
+        Candidate cause → the mean-square error (µm²) it removes against the
+        better rate-independent model with each hold's level taken out of
+        every model's residual (:func:`pysim.diagnosis.holds.without_hold_levels`),
+        given on a staircase.  The same test: the level of a held-out hold is
+        extrapolated by every rate-independent fit, and an advantage that
+        lives only there is theirs to lose.
 
     Returns
     -------
     dict with ``cause``, ``causes`` (tuple), ``significant`` (cause → bool),
-    ``best`` (the best candidate or None), ``explained_share``, ``text`` and
-    ``not_where_states_seen`` (the causes significant but for the last rule).
+    ``best`` (the best candidate or None), ``explained_share``, ``text``,
+    ``not_where_states_seen`` and ``not_beside_hold_levels`` (the causes
+    significant but for the last two rules, each by its own).
 
     Examples
     --------
@@ -127,10 +138,15 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
     # there, the median block differs between models by chance -- independent seed 968, no effect,
     # a 30-operator plant fitted with ten: in the median block creep removed 0.84 σ² and a lag 0.53 σ²;
     # where the states were seen the lag removed 0.003 σ², which kept creep named)
-    vetoed = tuple(c for c in mse if significant[c] and removed_where_states_seen is not None
-                   and not removed_where_states_seen.get(c, math.inf) > SEEN_SHARE * (ref - mse[c]))
+    def lost(removed_where):
+        return tuple(c for c in mse if significant[c] and removed_where is not None
+                     and not removed_where.get(c, math.inf) > SEEN_SHARE * (ref - mse[c]))
+
+    not_seen, not_beside_levels = lost(removed_where_states_seen), lost(removed_beside_hold_levels)
+    vetoed = tuple(c for c in mse if c in not_seen or c in not_beside_levels)
     if len(vetoed) < sum(significant.values()):
-        vetoed = ()
+        vetoed = not_seen = not_beside_levels = ()
+    lost_where = {"not_where_states_seen": not_seen, "not_beside_hold_levels": not_beside_levels}
     for c in vetoed:
         significant[c] = False
     named = [c for c in mse if significant[c]]
@@ -138,13 +154,13 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
         best = min(mse, key=mse.get) if mse else None
         if excess >= UNEXPLAINED_LEVEL * s2 and s2 > 0:
             return {"cause": "unexplained", "causes": ("unexplained",), "significant": significant,
-                    "not_where_states_seen": vetoed, "best": None,
+                    **lost_where, "best": None,
                     "explained_share": 0.0 if best is None else max(0.0, (ref - mse[best]) / excess),
                     "text": f"no candidate lowers the out-of-sample error significantly, yet the best "
                             f"rate-independent model leaves {ref / s2:.3g} σ² of mean-square error "
                             f"(noise: 1 σ²): something outside the catalogue{_OUTSIDE}"}
         return {"cause": "none", "causes": (), "significant": significant, "best": None, "explained_share": 0.0,
-                "text": "", "not_where_states_seen": vetoed}
+                "text": "", **lost_where}
     best = min(named, key=lambda c: mse[c])
     improvement = ref - mse[best]
     # as good as the best: the difference is within the noise margin or a small share of what the
@@ -162,7 +178,7 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
     share = improvement / excess if excess > 0 else 1.0
     if excess >= UNEXPLAINED_LEVEL * s2 and share < UNEXPLAINED_SHARE:
         return {"cause": "unexplained", "causes": ("unexplained",), "significant": significant,
-                "not_where_states_seen": vetoed, "best": best,
+                **lost_where, "best": best,
                 "explained_share": share,
                 "text": f"the best candidate, {best}, removes only {100 * share:.0f} % of the mean-square "
                         f"error above the noise ({excess / s2:.3g} σ²): most of the residual is outside "
@@ -170,7 +186,7 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
     winner = simplest_unless_outranked(ties, best, complexity, mse, outranks)
     causes = tuple([winner] + [c for c in ties if c != winner])
     return {"cause": winner, "causes": causes, "significant": significant, "best": best,
-            "explained_share": share, "text": "", "not_where_states_seen": vetoed}
+            "explained_share": share, "text": "", **lost_where}
 
 
 def rms_gain_pct(mse_um2: float, reference_mse_um2: float) -> float:

@@ -68,6 +68,10 @@ class Evaluation:
         (σ²) on the held-out samples where every operator also stays inside
         the states its training blocks showed; NaN for a rate-independent
         model.
+    removed_beside_hold_levels_sigma2 : float
+        The same on a staircase with each hold's level taken out of every
+        model's residual (:func:`pysim.diagnosis.holds.without_hold_levels`);
+        NaN on other records and for a rate-independent model.
     """
 
     fit: CandidateFit
@@ -85,6 +89,7 @@ class Evaluation:
     per_block_mse_um2: list = field(default_factory=list)
     structures: list = field(default_factory=list, repr=False)
     removed_where_states_seen_sigma2: float = float("nan")
+    removed_beside_hold_levels_sigma2: float = float("nan")
 
     @property
     def cause(self) -> str:
