@@ -845,7 +845,7 @@ class _DiagnosisRun:
         # in the median block, an input low-pass and a slew limit removed 0.9 and 0.7 σ² of it -- all
         # in the levels of held-out holds, which every rate-independent fit extrapolates from the
         # other blocks; with the levels taken out the plain fit leaves 1.04 σ² and no candidate less,
-        # while a true slew limit on a staircase (seed 232) still removes 2.6 σ² of the 3.6 left
+        # while a true slew limit on a staircase (seed 232) still removes 2.5 σ² that way (2.0 without)
         runs = staircase_holds(self.v, self.folds)
         if runs is None:
             return None
