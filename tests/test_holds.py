@@ -7,7 +7,7 @@ import scipy.signal
 
 from independent_records import osp_operators
 
-from pysim.diagnosis.folds import make_folds
+from pysim.diagnosis.folds import record_folds
 from pysim.diagnosis.holds import (named_by_moving_holds, staircase_holds, voting_holds,
                                    without_hold_levels)
 
@@ -99,8 +99,8 @@ def test_hold_levels_taken_out_leave_the_noise_of_any_rate_independent_model_and
     slew-limited model does not."""
     rng = np.random.default_rng(21)
     v = _staircase(rng, steps=30, hold=200)
-    folds = make_folds(v)
-    runs = staircase_holds(v, folds)
+    folds, scored_mask = record_folds(v)
+    runs = staircase_holds(v, scored_mask)
     assert runs is not None and len(runs) >= 25
     sigma = 0.02
     truth = _rate_independent(v)
@@ -125,10 +125,10 @@ def test_hold_levels_taken_out_leave_the_noise_of_any_rate_independent_model_and
 def test_a_record_is_a_staircase_only_when_its_holds_hold_most_of_what_is_scored():
     rng = np.random.default_rng(22)
     stairs = _staircase(rng, steps=12, hold=300)
-    assert staircase_holds(stairs, make_folds(stairs)) is not None
+    assert staircase_holds(stairs, record_folds(stairs)[1]) is not None
     sine = 50.0 + 50.0 * np.sin(np.arange(3600) / 60.0)
-    assert staircase_holds(sine, make_folds(sine)) is None
+    assert staircase_holds(sine, record_folds(sine)[1]) is None
     # five holds of 300 samples among 6000 samples of sine: holds, but not a staircase
     mixed = np.concatenate([sine[:2000], _staircase(rng, steps=6, hold=300), sine[2000:]])
-    assert staircase_holds(mixed, make_folds(mixed)) is None
+    assert staircase_holds(mixed, record_folds(mixed)[1]) is None
     assert len(voting_holds([("mixed", mixed, mixed, mixed, 0.05)])) == 1

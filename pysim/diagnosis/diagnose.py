@@ -823,20 +823,12 @@ class _DiagnosisRun:
         # peak where no other block does leave operators in such states, every rate-independent model
         # extrapolates there, and a slow candidate that draws the same trend could be named for it
         # (only where two blocks or more score MIN_SCORED_PER_BLOCK such samples: fewer prove nothing)
-        y, noise, candidates = self.y, self.noise, self.candidates
         seen_folds = well_scored(make_folds(self.v, settle=settle_samples(self.v.size),
                                             operator_outputs_V=self.fitter.operator_outputs_V()))
         if seen_folds is None:
             return None
-
-        def where_seen(ev):
-            return blocked_score(y, ev.cv_prediction_um, seen_folds)[1]
-
-        reference_seen = min(where_seen(self.baseline), where_seen(self.richer))
-        removed_seen = {c: reference_seen - where_seen(ev) for c, ev in candidates.items()}
-        for c, ev in candidates.items():
-            ev.removed_where_states_seen_sigma2 = removed_seen[c] / noise**2 if noise > 0 else 0.0
-        return removed_seen
+        return self._removed_as_scored(lambda ev: blocked_score(self.y, ev.cv_prediction_um, seen_folds)[1],
+                                       "removed_where_states_seen_sigma2")
 
     def _removed_beside_hold_levels(self):
         """On a staircase, what each candidate removes (µm², against the better rate-independent model)
@@ -846,18 +838,22 @@ class _DiagnosisRun:
         # in the levels of held-out holds, which every rate-independent fit extrapolates from the
         # other blocks; with the levels taken out the plain fit leaves 1.04 σ² and no candidate less,
         # while a true slew limit on a staircase (seed 232) still removes 2.5 σ² that way (2.0 without)
-        runs = staircase_holds(self.v, self.folds)
+        runs = staircase_holds(self.v, self.mask)
         if runs is None:
             return None
-        y, folds, noise, candidates = self.y, self.folds, self.noise, self.candidates
+        y, folds = self.y, self.folds
+        return self._removed_as_scored(
+            lambda ev: blocked_score(y, without_hold_levels(y, ev.cv_prediction_um, runs, folds), folds)[1],
+            "removed_beside_hold_levels_sigma2")
 
-        def beside_levels(ev):
-            return blocked_score(y, without_hold_levels(y, ev.cv_prediction_um, runs, folds), folds)[1]
-
-        reference = min(beside_levels(self.baseline), beside_levels(self.richer))
-        removed = {c: reference - beside_levels(ev) for c, ev in candidates.items()}
-        for c, ev in candidates.items():
-            ev.removed_beside_hold_levels_sigma2 = removed[c] / noise**2 if noise > 0 else 0.0
+    def _removed_as_scored(self, score, attribute: str) -> dict:
+        """What each candidate removes (µm²) against the better rate-independent model when every model
+        is scored by ``score(evaluation)`` (µm²); each candidate's ``attribute`` gets it in σ²."""
+        noise = self.noise
+        reference = min(score(self.baseline), score(self.richer))
+        removed = {c: reference - score(ev) for c, ev in self.candidates.items()}
+        for c, ev in self.candidates.items():
+            setattr(ev, attribute, removed[c] / noise**2 if noise > 0 else 0.0)
         return removed
 
     def _judge_on_second_record(self):

@@ -109,14 +109,14 @@ def voting_holds(records) -> list:
     return found
 
 
-def staircase_holds(voltage_V, folds) -> list | None:
+def staircase_holds(voltage_V, scored_mask) -> list | None:
     """The holds of a record that is a staircase, else None.
 
     Parameters
     ----------
     voltage_V : array_like
-    folds : list of (train, scored)
-        The blocked cross-validation folds (:func:`pysim.diagnosis.folds.make_folds`).
+    scored_mask : array_like of bool
+        The samples the blocked cross-validation scores (:func:`pysim.diagnosis.folds.record_folds`).
 
     Returns
     -------
@@ -127,19 +127,17 @@ def staircase_holds(voltage_V, folds) -> list | None:
     Examples
     --------
     >>> v = np.repeat([0.0, 80.0, 20.0, 100.0, 50.0, 10.0], 200)
-    >>> folds = [(None, np.arange(200, 700)), (None, np.arange(700, 1200))]
-    >>> staircase_holds(v, folds)
+    >>> scored = np.arange(v.size) >= 200
+    >>> staircase_holds(v, scored)
     [(200, 400), (400, 600), (600, 800), (800, 1000), (1000, 1200)]
-    >>> staircase_holds(np.sin(np.arange(1200) / 40.0), folds) is None
+    >>> staircase_holds(np.sin(np.arange(1200) / 40.0), scored) is None
     True
     """
     v = np.asarray(voltage_V, dtype=float)
     runs = hold_runs(v, MIN_HOLD_SAMPLES)
     if len(runs) < MIN_HOLDS:
         return None
-    scored = np.zeros(v.size, dtype=bool)
-    for _, s in folds:
-        scored[s] = True
+    scored = np.asarray(scored_mask, dtype=bool)
     held = np.zeros(v.size, dtype=bool)
     for first, stop in runs:
         held[first:stop] = True
