@@ -8,10 +8,15 @@ import math
 
 import numpy as np
 
-__all__ = ["SLEW_SEARCH_SPAN", "slew_rate_grid"]
+__all__ = ["MOVED_EXPLAINED_SHARE", "SLEW_SEARCH_SPAN", "explained_where_moved", "slew_rate_grid"]
 
 #: The slew rates searched first span this ratio below the fastest move of the records.
 SLEW_SEARCH_SPAN = 40.0
+#: Share of the rate-independent fit's squared miss on the samples an input stage moves (and the
+#: :data:`MOVED_SETTLE_SAMPLES` after each) that the stage's own fit must remove there.
+MOVED_EXPLAINED_SHARE = 0.5
+#: Samples after each moved one that still count as moved (the operators settle with the input).
+MOVED_SETTLE_SAMPLES = 2
 
 
 def slew_rate_grid(records, points: int) -> np.ndarray:
@@ -42,3 +47,34 @@ def slew_rate_grid(records, points: int) -> np.ndarray:
     spacing = math.log(top[1] / top[0]) if points > 1 else math.log(SLEW_SEARCH_SPAN)
     below = math.ceil(math.log(top[0] / slowest) / spacing)
     return np.r_[np.geomspace(slowest, top[0], below + 1)[:-1], top]
+
+
+def explained_where_moved(voltage_V, operator_input_V, displacement_um, without_stage_um, with_stage_um,
+                          settle: int = MOVED_SETTLE_SAMPLES) -> tuple:
+    """``(miss_without_um2, miss_with_um2, samples)``: the squared misses (summed, µm²) of a fit
+    without the stage and of the fit with it on the samples where the stage moves what the operators
+    see (``operator_input_V`` differs from ``voltage_V``) and the ``settle`` samples after each.
+
+    A stage that moves only a few samples shows itself there: a true slew limit turns the
+    rate-independent fit's large miss on a step's first samples into the noise, while a stage that
+    leaves that miss as it was has not explained the samples it changed, and any gain it brings
+    elsewhere comes from the weights those samples lever, not from an effect.
+
+    Examples
+    --------
+    >>> v = np.array([0.0, 0.0, 10.0, 10.0, 10.0, 10.0])
+    >>> x = np.array([0.0, 0.0, 5.0, 10.0, 10.0, 10.0])       # a ramp behind a slew limit
+    >>> y = x.copy()                                            # an actuator that follows it
+    >>> explained_where_moved(v, x, y, v, x)                    # samples 2, 3 and 4
+    (25.0, 0.0, 3)
+    """
+    v = np.asarray(voltage_V, dtype=float)
+    x = np.asarray(operator_input_V, dtype=float)
+    moved = np.flatnonzero(np.abs(x - v) > 1e-9 * max(float(np.ptp(v)), 1e-300))
+    if moved.size == 0:
+        return 0.0, 0.0, 0
+    rows = np.unique(np.minimum(moved[:, None] + np.arange(settle + 1), v.size - 1))
+    y = np.asarray(displacement_um, dtype=float)[rows]
+    without = float(np.sum((y - np.asarray(without_stage_um, dtype=float)[rows]) ** 2))
+    with_stage = float(np.sum((y - np.asarray(with_stage_um, dtype=float)[rows]) ** 2))
+    return without, with_stage, int(rows.size)

@@ -162,6 +162,7 @@ class Diagnosis:
                 "mse_removed_over_noise": ev.excess_over_noise, "significant": ev.significant,
                 "mse_removed_where_states_seen_over_noise": _plain(ev.removed_where_states_seen_sigma2),
                 "mse_removed_beside_hold_levels_over_noise": _plain(ev.removed_beside_hold_levels_sigma2),
+                "miss_where_stage_moves_over_noise": _moved_miss(ev.explained_where_moved),
                 "train_rms_pct": ev.train_rms_pct, "parameters": _plain(ev.fit.parameters),
                 "reason": self.reasons.get(cause, ""), "gain_vs_rate_independent_pct": ev.gain_vs_richer_pct,
                 "condition_number": ev.fit.result.condition_number if ev.fit.result else None,
@@ -228,6 +229,15 @@ class Diagnosis:
                 "samples": int(self.excitation.size), "plan": self.excitation_plan,
                 "voltage_range_V": [float(self.excitation.min()), float(self.excitation.max())]},
         })
+
+
+def _moved_miss(explained):
+    """``{"without_stage", "with_stage", "samples"}`` of an input stage that moves few samples (the
+    squared misses there in σ², summed), None for any other model."""
+    if explained is None:
+        return None
+    without, with_stage, samples = explained
+    return {"without_stage": without, "with_stage": with_stage, "samples": samples}
 
 
 def _static_gain(model) -> float:

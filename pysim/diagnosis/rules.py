@@ -65,7 +65,7 @@ _OUTSIDE = (" (an effect it does not hold, or a hysteresis that no MPI model can
 
 def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um: float, complexity: dict,
            consistent: dict | None = None, outranks=None, removed_where_states_seen: dict | None = None,
-           removed_beside_hold_levels: dict | None = None):
+           removed_beside_hold_levels: dict | None = None, unexplained_where_moved=()):
     """Name the cause from out-of-sample mean-square errors (µm²).
 
     Parameters
@@ -105,13 +105,21 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
         given on a staircase.  The same test: the level of a held-out hold is
         extrapolated by every rate-independent fit, and an advantage that
         lives only there is theirs to lose.
+    unexplained_where_moved : iterable of str, optional
+        Causes whose input stage moves only a few samples of the record and
+        does not explain the rate-independent fit's miss there
+        (:func:`pysim.diagnosis.input_stages.explained_where_moved`).  Each is
+        turned down by itself, whatever the others do, and joins no set: what
+        it gains comes from the weights those few samples lever, not from the
+        stage.
 
     Returns
     -------
     dict with ``cause``, ``causes`` (tuple), ``significant`` (cause → bool),
     ``best`` (the best candidate or None), ``explained_share``, ``text``,
-    ``not_where_states_seen`` and ``not_beside_hold_levels`` (the causes
-    significant but for the last two rules, each by its own).
+    ``not_where_states_seen``, ``not_beside_hold_levels`` and
+    ``not_where_moved`` (the causes significant but for the last three
+    rules, each by its own).
 
     Examples
     --------
@@ -131,6 +139,9 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
         # large enough to be significant, but for the test that the removal holds across the record
         large_enough[cause] = bool(beyond_noise or (near_noise and consistent is not None))
         significant[cause] = bool(beyond_noise or (near_noise and consistent and consistent.get(cause)))
+    not_moved = tuple(c for c in mse if c in set(unexplained_where_moved) and large_enough[c])
+    for c in not_moved:
+        significant[c] = large_enough[c] = False
     # the check asks whether there is an effect at all, not which one: when one significant cause
     # keeps an advantage where the states were seen, its look-alikes stay (on a 1.5 σ input low-pass,
     # independent seed 214, the truth itself removed nothing there while the delay did)
@@ -146,7 +157,8 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
     vetoed = tuple(c for c in mse if c in not_seen or c in not_beside_levels)
     if len(vetoed) < sum(significant.values()):
         vetoed = not_seen = not_beside_levels = ()
-    lost_where = {"not_where_states_seen": not_seen, "not_beside_hold_levels": not_beside_levels}
+    lost_where = {"not_where_states_seen": not_seen, "not_beside_hold_levels": not_beside_levels,
+                  "not_where_moved": not_moved}
     for c in vetoed:
         significant[c] = False
     named = [c for c in mse if significant[c]]

@@ -72,6 +72,12 @@ class Evaluation:
         The same on a staircase with each hold's level taken out of every
         model's residual (:func:`pysim.diagnosis.holds.without_hold_levels`);
         NaN on other records and for a rate-independent model.
+    explained_where_moved : tuple or None
+        For an input stage that moves only a few samples: the squared miss
+        (σ², summed) of the rate-independent fit and of this model on the
+        samples the stage moves and the two after each, and their number
+        (:func:`pysim.diagnosis.input_stages.explained_where_moved`); None
+        otherwise.
     """
 
     fit: CandidateFit
@@ -90,6 +96,7 @@ class Evaluation:
     structures: list = field(default_factory=list, repr=False)
     removed_where_states_seen_sigma2: float = float("nan")
     removed_beside_hold_levels_sigma2: float = float("nan")
+    explained_where_moved: tuple = None
 
     @property
     def cause(self) -> str:

@@ -217,12 +217,14 @@ def _named_by_second_record(s: _SecondRecordScores, complexity, outranks=None) -
     verdict = named_without(worse_where_fitted)
     # a cause whose advantage on the first record lived only where the rate-independent fits extrapolate
     # the operator states (decide's not_where_states_seen, or on a staircase the levels of its holds,
-    # not_beside_hold_levels) is not named by the second record, which those
-    # fits predict from states the first record never showed either, unless that record is decisive
-    # (independent seed 968, no effect, a 30-operator plant fitted with ten: creep, vetoed on the steps
-    # and sines of the first record, removed 0.31 of the 0.45 σ² the baseline left on band-limited noise)
-    vetoed_first = set(s.cv_verdict.get("not_where_states_seen") or ()) | set(
-        s.cv_verdict.get("not_beside_hold_levels") or ())
+    # not_beside_hold_levels) is not named by the second record, which those fits predict from states
+    # the first record never showed either, unless that record is decisive (independent seed 968, no
+    # effect, a 30-operator plant fitted with ten: creep, vetoed on the steps and sines of the first
+    # record, removed 0.31 of the 0.45 σ² the baseline left on band-limited noise); nor is a stage whose
+    # advantage came from the weights a few samples it moved lever (not_where_moved): its model carries
+    # those weights to the second record
+    vetoed_first = set().union(*(s.cv_verdict.get(key) or () for key in
+                                 ("not_where_states_seen", "not_beside_hold_levels", "not_where_moved")))
     if verdict["cause"] in vetoed_first and not _second_record_decisive(s, verdict):
         verdict = named_without(worse_where_fitted | vetoed_first)
     if verdict["cause"] not in EFFECTS:
