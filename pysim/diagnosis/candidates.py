@@ -85,7 +85,7 @@ from pysim.core.extended import (
 )
 from pysim.core.input_stage import InputStageModel, apply_input_stage
 from pysim.diagnosis.errors import DiagnosisError
-from pysim.diagnosis.input_stages import slew_rate_grid
+from pysim.diagnosis.input_stages import moved_by_stage, slew_rate_grid
 from pysim.identification.determinacy import DETERMINED_SPREAD, cycle_prediction_spread, decided_weights
 from pysim.identification.identify import (
     IdentificationError,
@@ -744,7 +744,7 @@ class CandidateFitter:
         record's samples: its operators see nearly the voltage the rate-independent fit saw."""
         if family.input_stage is None:
             return False
-        moved = np.abs(self.operator_input(family) - self.v) > 1e-9 * max(float(np.ptp(self.v)), 1e-300)
+        moved = moved_by_stage(self.v, self.operator_input(family))
         return np.count_nonzero(moved) < FEW_MOVED_SHARE * self.v.size
 
     def _record_ties(self, family: Family):

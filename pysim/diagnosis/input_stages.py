@@ -8,7 +8,8 @@ import math
 
 import numpy as np
 
-__all__ = ["MOVED_EXPLAINED_SHARE", "SLEW_SEARCH_SPAN", "explained_where_moved", "slew_rate_grid"]
+__all__ = ["MOVED_EXPLAINED_SHARE", "SLEW_SEARCH_SPAN", "explained_where_moved", "moved_by_stage",
+           "slew_rate_grid"]
 
 #: The slew rates searched first span this ratio below the fastest move of the records.
 SLEW_SEARCH_SPAN = 40.0
@@ -49,6 +50,19 @@ def slew_rate_grid(records, points: int) -> np.ndarray:
     return np.r_[np.geomspace(slowest, top[0], below + 1)[:-1], top]
 
 
+def moved_by_stage(voltage_V, operator_input_V) -> np.ndarray:
+    """Boolean mask of the samples where a stage moves what the operators see: ``operator_input_V``
+    differs from ``voltage_V`` by more than rounding (10⁻⁹ of the voltage's span).
+
+    Examples
+    --------
+    >>> moved_by_stage([0.0, 10.0, 10.0], [0.0, 5.0, 10.0]).tolist()
+    [False, True, False]
+    """
+    v = np.asarray(voltage_V, dtype=float)
+    return np.abs(np.asarray(operator_input_V, dtype=float) - v) > 1e-9 * max(float(np.ptp(v)), 1e-300)
+
+
 def explained_where_moved(voltage_V, operator_input_V, displacement_um, without_stage_um, with_stage_um,
                           settle: int = MOVED_SETTLE_SAMPLES) -> tuple:
     """``(miss_without_um2, miss_with_um2, samples)``: the squared misses (summed, µm²) of a fit
@@ -69,8 +83,7 @@ def explained_where_moved(voltage_V, operator_input_V, displacement_um, without_
     (25.0, 0.0, 3)
     """
     v = np.asarray(voltage_V, dtype=float)
-    x = np.asarray(operator_input_V, dtype=float)
-    moved = np.flatnonzero(np.abs(x - v) > 1e-9 * max(float(np.ptp(v)), 1e-300))
+    moved = np.flatnonzero(moved_by_stage(v, operator_input_V))
     if moved.size == 0:
         return 0.0, 0.0, 0
     rows = np.unique(np.minimum(moved[:, None] + np.arange(settle + 1), v.size - 1))

@@ -139,7 +139,8 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
         # large enough to be significant, but for the test that the removal holds across the record
         large_enough[cause] = bool(beyond_noise or (near_noise and consistent is not None))
         significant[cause] = bool(beyond_noise or (near_noise and consistent and consistent.get(cause)))
-    not_moved = tuple(c for c in mse if c in set(unexplained_where_moved) and large_enough[c])
+    unexplained_where_moved = set(unexplained_where_moved)
+    not_moved = tuple(c for c in mse if c in unexplained_where_moved and large_enough[c])
     for c in not_moved:
         significant[c] = large_enough[c] = False
     # the check asks whether there is an effect at all, not which one: when one significant cause
