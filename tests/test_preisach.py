@@ -222,3 +222,25 @@ def test_an_effect_is_named_when_a_record_it_cannot_touch_stays_at_its_noise():
     edge = 1.0 + NOISE_FRACTION
     at_edge = {**untouched, "none": fit("none", 7.9, edge), "slew_limit": fit("slew_limit", 1.0, edge)}
     assert verdict_on_both_records(at_edge)["cause"] == "slew_limit"
+
+
+def test_halves_of_a_record_fixed_late_are_the_halves_of_its_usable_samples(inputs):
+    """A record that dithers a volt about mid-range for its first 60 % (the operators' states before
+    it stay unknown: no threshold is fixed there) and then sweeps the range: split at its middle
+    sample, its first half would hold no usable sample and score nothing (a mean over no samples).
+    The halves are then those of the usable samples, each holds more rows than the model has
+    columns, and the model alone fits both to the noise.  A record of 400 samples has fewer in each
+    half than the model has columns: nothing to score, and the parts say so."""
+    n_dither = 12000
+    t = np.arange(n_dither) / RATE_HZ
+    v = np.r_[0.5 * (LO + HI) + 1.0 * np.sin(2 * np.pi * 3.0 * t), inputs[0]]
+    y = _noisy(_actuator(v), 31)
+    parts = GeneralModelParts.halves(v, y, 1 / RATE_HZ)
+    first_half, second_half = parts.usable
+    assert first_half.min() >= n_dither > v.size // 2              # nothing before the sweep is usable
+    assert abs(first_half.size - second_half.size) <= 1 and first_half.max() < second_half.min()
+    assert parts.scorable and first_half.size >= HYSTERESIS_COLUMNS
+    fit = parts.fit()
+    assert np.all(np.isfinite(fit.mse_sigma2)) and max(fit.mse_sigma2) < 1.0 + NOISE_FRACTION
+    short = inputs[0][::20]
+    assert not GeneralModelParts.halves(short, _noisy(_actuator(short), 32), 1 / RATE_HZ).scorable

@@ -1200,6 +1200,8 @@ class _DiagnosisRun:
         # creep record of seeds 0-146 gets modes of 2-13 % there, and so does every in-class one tried)
         v, y, T, v2, y2 = self.v, self.y, self.T, self.v2, self.y2
         both = GeneralModelParts(v, y, T, v2, y2, T) if named_before == "creep" else None
+        if both is not None and not self._both_scorable(both):
+            return None
         general_creep = both.fit("creep") if both is not None else None
         self.general_creep = general_creep
         creep_unseen = general_creep is not None and max(general_creep.creep["weights"]) <= NO_CREEP_WEIGHT
@@ -1215,8 +1217,19 @@ class _DiagnosisRun:
         else:
             reason = (f"{named_before}'s model, fitted on the first record, leaves the second "
                       f"{named_left:.3g} σ² above its noise")
-        self._judge_by_general_model_on_both(both or GeneralModelParts(v, y, T, v2, y2, T), reason)
+        both = both or GeneralModelParts(v, y, T, v2, y2, T)
+        if self._both_scorable(both):
+            self._judge_by_general_model_on_both(both, reason)
         return None
+
+    def _both_scorable(self, parts: GeneralModelParts) -> bool:
+        """Whether the general model can score both records; where it cannot (a record whose input fixes
+        the operators' states on too few samples), the MPI models' verdict stands and the note says so."""
+        if parts.scorable:
+            return True
+        self.validation.update(note=f"{self.validation['note']}; the general model was not asked: a record's "
+                                    "input fixes every operator's state on too few samples to score it")
+        return False
 
     def _judge_by_general_model_on_both(self, parts: GeneralModelParts, reason: str):
         """The verdict put to the general model fitted on both records (``parts``); ``reason`` says why
@@ -1323,6 +1336,8 @@ class _DiagnosisRun:
             # worse than the plain fit; every creep named right alone, in class and outside, gets at
             # least 0.37 % there, 1.3 % in class)
             if named == "creep":
+                if not self._halves_scorable():
+                    return
                 # the same fit gives the model delivered its modes (_choose_model_delivered), and the
                 # effects on the halves below take it as it is
                 self.halves_fits = {"creep": self._halves_parts().fit("creep")}
@@ -1337,6 +1352,8 @@ class _DiagnosisRun:
             reason = "the general model with creep, fitted on the record's halves, puts no weight on any creep mode"
         else:
             reason = f"{named}'s model leaves the record {named_left:.3g} σ² above its noise"
+        if not self._halves_scorable():
+            return
         self._judge_by_general_model_on_halves(self._halves_parts(), reason,
                                                creep_only_by_effect=creep_half_misses and not creep_unseen)
 
@@ -1347,6 +1364,15 @@ class _DiagnosisRun:
             # the thresholds the record fixes early): a start at the top of the range fixes every one
             self.halves_parts = GeneralModelParts.halves(*self.uncut, self.T, scored_from=self.start)
         return self.halves_parts
+
+    def _halves_scorable(self) -> bool:
+        """Whether the general model can score the record's halves; where it cannot (an input that fixes
+        the operators' states on too few samples), the verdict stands and the why says so."""
+        if self._halves_parts().scorable:
+            return True
+        self.halves_sentence = ("the general model was not asked on the record's halves: its input fixes every "
+                                "operator's state on too few samples to score them")
+        return False
 
     def _judge_by_general_model_on_halves(self, parts: GeneralModelParts, reason: str, creep_only_by_effect: bool):
         """The verdict put to the general model fitted on the record and scored on its halves (``parts``);

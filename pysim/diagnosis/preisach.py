@@ -146,7 +146,8 @@ def _first_fixed_sample(low, high) -> np.ndarray:
 
 def general_thresholds(records_V, known_share: float = KNOWN_SHARE) -> np.ndarray:
     """``N_THRESHOLDS`` thresholds (V) from 0 to the largest every record fixes within its first
-    ``1 - known_share`` of samples.
+    ``1 - known_share`` of samples.  A record whose input fixes no threshold that early (it wanders
+    within a volt or two before it sweeps) counts them from the sample where it fixes its first.
 
     Examples
     --------
@@ -161,6 +162,9 @@ def general_thresholds(records_V, known_share: float = KNOWN_SHARE) -> np.ndarra
     for v in records_V:
         first = _first_fixed_sample(*operator_bounds(v, probe, "osp", 0.0))
         fixed_early = probe[first <= (1.0 - known_share) * len(v)]
+        if not fixed_early.size and first.min() < len(v):
+            start = int(first.min())
+            fixed_early = probe[first <= start + (1.0 - known_share) * (len(v) - start)]
         reach = min(reach, float(fixed_early.max()) if fixed_early.size else 0.0)
     if reach <= 0.0:
         reach = probe[0]
@@ -337,6 +341,11 @@ class GeneralModelParts:
                   for (_, first), v in zip(built, self.v)]
         if halves:
             half = scored_from + (self.v[0].size - scored_from) // 2
+            if min(np.count_nonzero(usable[0] < half), np.count_nonzero(usable[0] >= half)) < self.A[0].shape[1]:
+                # the input fixes the operators too late for the record's first half to score a model of
+                # this many columns (independent seed 38: steps that turn back only after the middle, not a
+                # sample of the first half usable): the halves of the usable samples instead
+                half = int(usable[0][usable[0].size // 2]) if usable[0].size else half
             self.record_of = (0, 0)
             self.usable = (usable[0][usable[0] < half], usable[0][usable[0] >= half])
             part_samples = (half - scored_from, self.v[0].size - half)
@@ -351,6 +360,13 @@ class GeneralModelParts:
         self.creep_time_constants_s = creep_time_constants_s(min(part_samples), max(self.T))
         self._plain = {}            # the model alone, on the search rows and on all (creep starts from it)
         self._crept = {}            # the model with creep, likewise
+
+    @property
+    def scorable(self) -> bool:
+        """Whether every part holds at least as many usable samples as the model alone has columns:
+        a part with fewer is fitted by the others' weights and scores nothing of its own (a record
+        whose input never fixes the operators' states leaves none)."""
+        return min(rows.size for rows in self.usable) >= self.A[0].shape[1]
 
     def _with_bouc_wen(self, preisach_design, voltage_V, rows=slice(None)) -> np.ndarray:
         """The Preisach columns (on ``rows``) with the Bouc-Wen bank's outputs beside them."""
