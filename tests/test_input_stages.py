@@ -1,5 +1,10 @@
-"""Tests of pysim.diagnosis.input_stages: what an input stage shows where it moves the input."""
+"""Tests of the input stages: the slew limit's recursion in C (pysim.core.input_stage, against the
+independent generator's own loop) and pysim.diagnosis.input_stages, what a stage shows where it moves
+the input."""
 import numpy as np
+import pytest
+
+from independent_records import rate_limit
 
 from pysim.core.input_stage import slew_limit
 from pysim.diagnosis.input_stages import MOVED_SETTLE_SAMPLES, explained_where_moved
@@ -47,3 +52,20 @@ def test_the_samples_after_a_move_are_clipped_at_the_record_end():
     x = np.array([0.0, 0.0, 0.0, 5.0])
     without, with_stage, samples = explained_where_moved(v, x, x, v, x)
     assert samples == 1 and (without, with_stage) == (25.0, 0.0)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_slew_limit_in_c_follows_the_generators_own_loop(seed):
+    """The C recursion against a second implementation (the independent generator's Python loop):
+    random walks and quantised staircases, rates from a tenth of a volt to kilovolts per sample."""
+    rng = np.random.default_rng(seed)
+    for _ in range(25):
+        n = int(rng.integers(2, 3000))
+        v = np.cumsum(rng.normal(0.0, rng.uniform(0.01, 30.0), n)) + rng.uniform(-100.0, 100.0)
+        if rng.random() < 0.5:
+            v = np.round(v / 5.0) * 5.0
+        rate_V_per_s, period_s = rng.uniform(10.0, 1e6), 1.0 / rng.choice([1e3, 2e3, 1e4])
+        ours = slew_limit(v, rate_V_per_s, period_s)
+        np.testing.assert_allclose(ours, rate_limit(v, period_s, rate_V_per_s), rtol=0.0, atol=1e-9)
+        assert ours[0] == v[0] and np.max(np.abs(np.diff(ours))) <= rate_V_per_s * period_s * (1 + 1e-12)
+    assert slew_limit([], 1.0, 1.0).size == 0 and slew_limit([3.0], 1.0, 1.0).tolist() == [3.0]

@@ -1,6 +1,7 @@
 """Loads the C hysteresis kernel (``fmu_src/hysteresis.c``, with the output
-stages of extended models, ``fmu_src/output_stages.c``, and the mathematics of
-the MPI parameters, ``fmu_src/mpi_parameters.c``) for the host.
+stages of extended models, ``fmu_src/output_stages.c``, the slew limit of an
+input stage, ``fmu_src/input_stages.c``, and the mathematics of the MPI
+parameters, ``fmu_src/mpi_parameters.c``) for the host.
 
 The play-operator recursion, the forward model and the exact inverse exist once,
 in C; the FMUs compile that file and so does this module, so the Python model and
@@ -25,7 +26,7 @@ import numpy as np
 from pysim.core.toolchain import SOURCE_DIR, cache_dir, host_compiler
 
 _SOURCES = ("hysteresis.c", "hysteresis.h", "output_stages.c", "output_stages.h", "mpi_parameters.c",
-            "mpi_parameters.h")
+            "mpi_parameters.h", "input_stages.c", "input_stages.h")
 _C_FILES = tuple(name for name in _SOURCES if name.endswith(".c"))
 _lock = threading.Lock()
 _library = None
@@ -120,6 +121,8 @@ def library() -> ctypes.CDLL:
         lib.mpi_host_layout.restype = ctypes.c_int
         lib.mpi_host_max_delay.argtypes = []
         lib.mpi_host_max_delay.restype = ctypes.c_long
+        lib.istage_slew_limit.argtypes = [size_t, p, double, p]
+        lib.istage_slew_limit.restype = None
         _library = lib
         return lib
 

@@ -377,10 +377,22 @@ def _triangular_factor(A, y):
         return R, Q.T @ y
 
 
+def column_norms(A) -> np.ndarray:
+    """The Euclidean norm of every column of ``A`` (2-D), exactly as ``np.linalg.norm(A, axis=0)``
+    computes it, without the copy that function makes of a tall matrix first.
+
+    Examples
+    --------
+    >>> column_norms(np.array([[3.0, 0.0], [4.0, 2.0]])).tolist()
+    [5.0, 2.0]
+    """
+    return np.sqrt(np.add.reduce(A * A, axis=0))
+
+
 def _scaled_factor(A, y):
     """``(R, c, scale)``: :func:`_triangular_factor` of ``A`` with its columns scaled to unit norm
     (a zero column left as it is), and the scale."""
-    scale = np.linalg.norm(A, axis=0)
+    scale = column_norms(A)
     scale[scale == 0] = 1.0
     R, c = _triangular_factor(A / scale, y)
     return R, c, scale
@@ -1215,10 +1227,11 @@ class _Columns:
         for _ in range(r.size + 1):
             own, n_hyst, column_of = self.own, self.n_hyst, self.column_of
             probe_matrix = probe()
-            norms = np.linalg.norm(probe_matrix, axis=0)
+            norms = column_norms(probe_matrix)
             norms[norms == 0] = 1.0
-            # only R and the pivots: forming Q would cost more than the whole fit
-            R_probe, pivots = scipy.linalg.qr(probe_matrix / norms, mode="r", pivoting=True)
+            # only R and the pivots: forming Q would cost more than the whole fit (mode "raw" gives R as
+            # its square top; mode "r" copies the whole tall matrix to zero all below it)
+            _, R_probe, pivots = scipy.linalg.qr(probe_matrix / norms, mode="raw", pivoting=True)
             diagonal = np.abs(np.diag(R_probe))
             rank = int(np.count_nonzero(diagonal > RANK_TOLERANCE * diagonal[0]))
             dependent_ops = [i for i in own if column_of[i] in set(pivots[rank:].tolist())]
