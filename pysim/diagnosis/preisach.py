@@ -343,8 +343,8 @@ class GeneralModelParts:
             half = scored_from + (self.v[0].size - scored_from) // 2
             if min(np.count_nonzero(usable[0] < half), np.count_nonzero(usable[0] >= half)) < self.A[0].shape[1]:
                 # the input fixes the operators too late for the record's first half to score a model of
-                # this many columns (independent seed 38: steps that turn back only after the middle, not a
-                # sample of the first half usable): the halves of the usable samples instead
+                # this many columns (independent seeds 38 and 1003: steps that turn back only after the
+                # middle, not a sample of the first half usable): the halves of the usable samples instead
                 half = int(usable[0][usable[0].size // 2]) if usable[0].size else half
             self.record_of = (0, 0)
             self.usable = (usable[0][usable[0] < half], usable[0][usable[0] >= half])
