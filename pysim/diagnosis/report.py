@@ -6,7 +6,7 @@
   the residual statistics, and how to read each plot;
 - ``diagnosis.json``: the same as ``pysim diagnose --json``;
 - ``overview.png``: input, measured and simulated displacement, residuals over time,
-  and the record's artefacts (spikes, jumps, flat runs) marked;
+  and the record's artefacts (spikes, jumps, flat runs) marked (a hum is said in the summary);
 - ``loops.png``: held-out hysteresis loops, measured against both models;
 - ``residual_vs_rate.png``, ``residual_vs_time_since_change.png``,
   ``cross_correlation.png``, ``spectrum.png``: the residual from each angle of
@@ -41,7 +41,8 @@ PLOTS = {
     "overview.png": "input (top), measured and simulated displacement (middle) and the residuals "
                     "(bottom) over the whole record; the shaded part is the last cross-validation block. A residual that "
                     "the extended model flattens is the effect that was named. Lines and bands mark what no "
-                    "model of an actuator explains (spikes, jumps, flat runs of the sensor), if any.",
+                    "model of an actuator explains (spikes, jumps, flat runs of the sensor), if any; a mains hum, "
+                    "which runs through the whole record, is said in the summary, not marked.",
     "loops.png": "held-out hysteresis loops: measured against the baseline and the extended model. "
                  "Loops that the baseline makes too narrow or too wide at some rates point to dynamics "
                  "or a delay; loops that move from cycle to cycle point to creep or drift.",
@@ -117,7 +118,8 @@ def _mark_artefacts(axes, d: Diagnosis):
     """The first record's artefacts (:mod:`pysim.diagnosis.artefacts`): a line at a spike or a jump, a band
     over a flat run, and one label per kind."""
     labelled = set()
-    for a in (a for a in d.artefacts if a["record"] == "first"):
+    # a hum runs through the whole record: said in the why, not marked at a time
+    for a in (a for a in d.artefacts if a["record"] == "first" and a["kind"] != "hum"):
         colour = ARTEFACT_COLOURS[a["kind"]]
         label = None
         if a["kind"] not in labelled:
@@ -149,9 +151,9 @@ def plot_overview(d: Diagnosis, path: Path):
                       + ("\n(the baseline fitted on the whole record, the extended model on it and the second record;"
                          "\n" if d.fitted_on_both_records else "\n(models fitted on the whole record; ")
                       + "every block is held out in turn for the scores, grey: the last block)", fontsize=10)
-    repaired = any(a["repaired"] and a["record"] == "first" for a in d.artefacts)
+    repaired = sorted({a["kind"] + "s" for a in d.artefacts if a["repaired"] and a["record"] == "first"})
     axes[1].plot(t, d.displacement_um, color=MEASURED_COLOUR, lw=0.8,
-                 label="measured" + (" (spikes and jumps repaired)" if repaired else ""))
+                 label="measured" + (f" ({' and '.join(repaired)} repaired)" if repaired else ""))
     _mark_artefacts(axes[1:], d)
     axes[1].plot(t, d.baseline.prediction_um, color=BASE_COLOUR, lw=0.8, ls="--", label=base_label)
     if d.cause != "none":

@@ -48,10 +48,10 @@ class Diagnosis:
         model on that record was compared after the same correction.  Empty
         when the MPI class draws the record's loops.
     artefacts : list of dict
-        Spikes, jumps and flat runs of the displacement that no model of the
+        Spikes, jumps, flat runs and mains hum of the displacement that no model of the
         actuator explains (:func:`pysim.diagnosis.artefacts.record_artefacts`),
         each with ``record`` ("first" or "second", as given) and ``repaired``
-        (spikes and jumps are, before the diagnosis, unless
+        (spikes, jumps and hums are, before the diagnosis, unless
         ``repair_artefacts=False``; ``displacement_um`` is then the repaired
         record).  Samples count from the record's first.
     noise_free : bool

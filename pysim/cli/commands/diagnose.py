@@ -47,7 +47,7 @@ def register(subparsers) -> None:
                         help="'auto' (default: no warm-up, the initial operator state is estimated) or a number "
                              "of samples the plots treat as warm-up")
     parser.add_argument("--keep-artefacts", action="store_true",
-                        help="report spikes and jumps of the displacement (which no model of the actuator "
+                        help="report spikes, jumps and mains hum of the displacement (which no model of the actuator "
                              "explains) without repairing them first; flat runs are only ever reported")
     parser.add_argument("--history-floor", type=float, metavar="V",
                         help="the lowest voltage the actuator was driven to before the records (e.g. 0 for a "
@@ -154,7 +154,9 @@ def format_text(result, report, out) -> str:
         if result.validation.get("resampled"):
             lines.append(f"  {result.validation['resampled']}")
     if result.artefacts:
-        listed = [f"{a['kind']} at sample {a['sample']} of the {a['record']} record"
+        from pysim.diagnosis.artefacts import artefact_label
+
+        listed = [f"{artefact_label(a)} of the {a['record']} record"
                   + (" (repaired)" if a["repaired"] else "") for a in result.artefacts]
         lines.append("\n  record artefacts: " + ", ".join(listed[:8]) + (f", and {len(listed) - 8} more"
                                                                           if len(listed) > 8 else ""))

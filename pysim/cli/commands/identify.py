@@ -218,10 +218,12 @@ def format_table(chosen, results, source, out, transient: int = 0, artefacts=(),
                      "input; fit fewer operators (--operators) or record an input that moves through the range "
                      "(sines or triangles rather than steps))")]
     if artefacts:
-        listed = [f"{a['kind']} at sample {a['sample']}"
-                  + (f" ({a['size_um']:+.3g} µm)" if a["kind"] == "jump" else "") for a in artefacts]
+        from pysim.diagnosis.artefacts import artefact_label
+
+        listed = [artefact_label(a) + (f" ({a['size_um']:+.3g} µm)" if a["kind"] == "jump" else "")
+                  for a in artefacts]
         lines += ["", "  record artefacts (no model of an actuator explains them; they are in this fit, "
-                  "`pysim diagnose` repairs spikes and jumps first): " + ", ".join(listed[:8])
+                  "`pysim diagnose` repairs spikes, jumps and hums first): " + ", ".join(listed[:8])
                   + (f", and {len(listed) - 8} more" if len(listed) > 8 else "")]
     lines += ["", f"  invertibility: {inv.message}", "",
               "  model   max err %   RMS err %   mean err %"]
