@@ -46,7 +46,8 @@ from pysim.identification.errors import DataError, IdentificationError
 
 __all__ = [
     "COLUMNS", "MeasuredData", "load_measured", "load_reference", "save_measured", "require_samples",
-    "estimate_sample_rate", "require_even_sampling", "resample_record", "resampling_stride", "common_sample_rate",
+    "estimate_sample_rate", "sampling_interval", "require_even_sampling", "resample_record", "resampling_stride",
+    "common_sample_rate",
     "checked_sample_rate",
     "EVEN_SAMPLING_SPREAD", "shipped_dataset", "SHIPPED_DATASETS",
 ]
@@ -68,9 +69,6 @@ _TAB_WORDS = ("tab", "\\t", "\t")
 _DELIMITER_NAMES = {",": "comma ','", ";": "semicolon ';'", "\t": "tab", " ": "spaces",
                     "|": "bar '|'", ":": "colon ':'"}
 _DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+([eE][+-]?\d+)?")
-# Relative spread of the sampling intervals below which a record counts as
-# uniformly sampled (timestamps rounded by the logger jitter by far less).
-_UNIFORM_SPREAD = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -128,25 +126,71 @@ class MeasuredData:
         return int(self.time_s.size)
 
 
+#: Largest deviation of one sampling interval from the record's (:func:`sampling_interval`), as a share
+#: of it, that a record whose dynamics are fitted tolerates: logger timestamps jitter and are rounded, but
+#: a missing sample (2x) or a pause is a jump in time that every lag, delay and creep would be fitted
+#: across.
+EVEN_SAMPLING_SPREAD = 0.5
+
+
 def estimate_sample_rate(time_s) -> float:
     """Sample rate in Hz of a strictly increasing time vector in s.
 
-    A uniformly sampled record (every interval within 1 % of the median) gets
-    ``(n - 1) / (t[-1] - t[0])``: loggers round timestamps, and the mean over
-    the whole record removes that rounding (5000 Hz rather than 4999.75 Hz for a
-    5 kHz logger writing 9 significant digits).  A record with gaps gets
-    ``1 / median interval``.  Fewer than two samples give NaN.
+    A uniformly sampled record (every interval within 1 % of
+    :func:`sampling_interval`) gets ``(n - 1) / (t[-1] - t[0])``: loggers
+    round timestamps, and the mean over the whole record removes that rounding
+    (5000 Hz rather than 4999.75 Hz for a 5 kHz logger writing 9 significant
+    digits).  One whose times are rounded to a good part of an interval
+    (every interval within ``EVEN_SAMPLING_SPREAD``) gets one over the
+    least-squares slope of its times against the sample number: 3000 Hz, not
+    the 3333 Hz of the median interval, for a 3 kHz logger writing its times
+    to 0.1 ms.  A record with gaps gets ``1 / sampling_interval``.  Fewer than
+    two samples give NaN.
+
+    Examples
+    --------
+    >>> t = np.round(np.arange(9000) / 3000.0, 4)          # 0.1 ms timestamps at 3 kHz
+    >>> round(estimate_sample_rate(t), 3)
+    3000.0
     """
     t = np.asarray(time_s, dtype=np.float64)
     if t.size < 2:
         return math.nan
-    steps = np.diff(t)
-    median = float(np.median(steps))
-    if not median > 0:
+    interval = sampling_interval(t)
+    if not interval > 0:
         return math.nan
-    if np.all(np.abs(steps - median) <= _UNIFORM_SPREAD * median):
-        return float((t.size - 1) / (t[-1] - t[0]))
-    return 1.0 / median
+    deviation = np.abs(np.diff(t) - interval)
+    if np.all(deviation <= 0.01 * interval):
+        return float((t.size - 1) / (t[-1] - t[0]))      # a logger's jitter: the first and last times
+    if np.all(deviation <= EVEN_SAMPLING_SPREAD * interval):
+        # times rounded to a good part of an interval: the first and last are off by up to half the
+        # rounding step, every one of them by as much, and a fit through all of them averages that out
+        k = np.arange(t.size, dtype=np.float64) - 0.5 * (t.size - 1)
+        return float(np.dot(k, k) / np.dot(k, t - t.mean()))
+    return 1.0 / interval
+
+
+def sampling_interval(time_s) -> float:
+    """The sampling interval (s) of a strictly increasing time vector: the median over the record of
+    the time spanned by ``L`` intervals over ``L`` (``L`` a tenth of the record, at most 100).
+
+    A single interval's median is off when the logger rounds its timestamps to a good part of an
+    interval (a 3 kHz record written to 0.1 ms steps by 0.3 and 0.4 ms, median 0.3 ms), and the mean
+    over the record is off when it has gaps; over ``L`` intervals the rounding shrinks ``L``-fold and a
+    gap reaches only the spans that hold it.  NaN for fewer than two samples.
+
+    Examples
+    --------
+    >>> round(sampling_interval(np.round(np.arange(9000) / 7000.0, 4)) * 7000.0, 2)  # 0.1 ms steps
+    1.0
+    >>> round(sampling_interval(np.r_[np.arange(100), np.arange(150, 250)] * 1e-3), 9)   # a 50 ms gap
+    0.001
+    """
+    t = np.asarray(time_s, dtype=np.float64)
+    if t.size < 2:
+        return math.nan
+    lag = max(1, min(100, (t.size - 1) // 10))
+    return float(np.median(t[lag:] - t[:-lag]) / lag)
 
 
 def require_samples(data: MeasuredData, n_needed: int, what: str) -> None:
@@ -170,17 +214,12 @@ def require_samples(data: MeasuredData, n_needed: int, what: str) -> None:
         raise DataError(f"{data.source or 'data'}: {len(data)} samples, need at least {n_needed} for {what}")
 
 
-#: Largest deviation of one sampling interval from the median, as a share of it, that a record whose
-#: dynamics are fitted tolerates: logger timestamps jitter, but a missing sample (2x) or a pause is a jump
-#: in time that every lag, delay and creep would be fitted across.
-EVEN_SAMPLING_SPREAD = 0.5
-
-
 def require_even_sampling(data: MeasuredData, what: str) -> None:
     """Raise :class:`DataError` when the samples of ``data`` are not evenly spaced in time.
 
-    Every interval must lie within ``EVEN_SAMPLING_SPREAD`` of the median
-    interval; timestamp jitter passes, a missing sample or a pause does not.
+    Every interval must lie within ``EVEN_SAMPLING_SPREAD`` of the sampling
+    interval (:func:`sampling_interval`); timestamp jitter and rounding pass,
+    a missing sample or a pause does not.
 
     Parameters
     ----------
@@ -193,7 +232,7 @@ def require_even_sampling(data: MeasuredData, what: str) -> None:
     ------
     DataError
         ``"<file>: the samples are not evenly spaced: an interval of X s after
-        t = T s against a median of M s; ..."``.
+        t = T s against a sampling interval of M s; ..."``.
 
     Examples
     --------
@@ -209,13 +248,14 @@ def require_even_sampling(data: MeasuredData, what: str) -> None:
     if t.size < 3:
         return
     steps = np.diff(t)
-    median = float(np.median(steps))
-    deviation = np.abs(steps - median)
+    interval = sampling_interval(t)
+    deviation = np.abs(steps - interval)
     worst = int(np.argmax(deviation))
-    if deviation[worst] > EVEN_SAMPLING_SPREAD * median:
+    if deviation[worst] > EVEN_SAMPLING_SPREAD * interval:
         raise DataError(f"{data.source or 'data'}: the samples are not evenly spaced: an interval of "
-                        f"{steps[worst]:.6g} s after t = {t[worst]:.6g} s against a median of {median:.6g} s; "
-                        f"{what} needs evenly spaced samples (resample the record, or split it at the gap)")
+                        f"{steps[worst]:.6g} s after t = {t[worst]:.6g} s against a sampling interval of "
+                        f"{interval:.6g} s; {what} needs evenly spaced samples (resample the record, or split "
+                        "it at the gap)")
 
 
 def checked_sample_rate(sample_rate_hz, what: str = "sample rate", error: type = DataError) -> float:
