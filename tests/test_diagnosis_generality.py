@@ -2839,3 +2839,34 @@ def test_a_quiet_record_without_an_effect_is_not_given_a_slew_limit_by_one_sampl
     assert named.cause == "slew_limit", named.why
     without, with_stage, _ = named.candidates["slew_limit"].explained_where_moved
     assert with_stage < 0.1 * without
+
+
+def test_a_cause_must_remove_more_than_the_noise_of_the_measured_voltage():
+    """decide: a candidate that removes 0.2 σ² near the noise is significant on a clean voltage and
+    not when the voltage's own noise adds 0.23 σ² to every model's error."""
+    mse, complexity = {"rate_dependent_hysteresis": 1.1}, {"rate_dependent_hysteresis": 1}
+    consistent = {"rate_dependent_hysteresis": True}
+    clean = decide(mse, 1.3, 1.3, 1.0, complexity, consistent)
+    noisy = decide(mse, 1.3, 1.3, 1.0, complexity, consistent, input_noise_um2=0.23)
+    assert clean["cause"] == "rate_dependent_hysteresis" and noisy["cause"] == "none"
+
+
+def test_a_noisy_voltage_channel_is_no_input_low_pass():
+    """Independent seed 1002 (no effect, a decaying sine at 10 kHz) with the voltage measured with white
+    noise of 0.2 % of its range (an amplifier's monitor): an input low-pass filters that noise out of the
+    prediction and had been named with its look-alikes; the voltage's noise is read to 10 %, the why
+    says what it adds, and nothing is named.  The clean voltage names nothing either."""
+    import independent_records
+
+    pair = independent_records.make_pair(1002, "none")
+    record = pair.train
+    v, y, fs = record.voltage_V, record.displacement_um, record.sample_rate_hz
+    sigma_V = 0.002 * float(np.ptp(v))
+    noisy = v + np.random.default_rng(1002).normal(0.0, sigma_V, v.size)
+    d = diagnose(noisy, y, fs)
+    assert d.cause == "none", d.why
+    assert d.voltage_noise_V == pytest.approx(sigma_V, rel=0.1)
+    assert "The voltage holds white noise" in d.why
+    assert d.as_json()["evidence"]["voltage_noise_V"] == pytest.approx(sigma_V, rel=0.1)
+    clean = diagnose(v, y, fs)
+    assert clean.cause == "none" and clean.voltage_noise_V < 1e-4 * float(np.ptp(v))

@@ -149,8 +149,8 @@ from pysim.diagnosis.holds import (contradicted_by_holds, contradicted_sentence,
 from pysim.diagnosis.input_stages import MOVED_EXPLAINED_SHARE, explained_where_moved
 from pysim.diagnosis.path_memory import path_memory
 from pysim.diagnosis.preisach import GeneralModelParts, verdict_on_both_records
-from pysim.diagnosis.residuals import (NOISE_FREE_FRACTION, VALIDATED_NOISE_FRACTION, models_noise_sigma,
-                                      record_noise_sigma, residual_statistics)
+from pysim.diagnosis.residuals import (NOISE_FREE_FRACTION, VALIDATED_NOISE_FRACTION, input_noise_sigma,
+                                      models_noise_sigma, record_noise_sigma, residual_statistics)
 from pysim.diagnosis.result import Diagnosis
 from pysim.diagnosis.rules import (MIN_GAIN_PCT, NEAR_NOISE_FRACTION, NOISE_FRACTION, TIE_FRACTION,
                                    UNEXPLAINED_LEVEL, rms_gain_pct, shape_not_unexplained, advantage_holds,
@@ -561,6 +561,7 @@ class _DiagnosisRun:
                  hums: tuple = ()):
         self.records, self.options, self.swap_reason = records, options, swap_reason
         self.hums_given = list(hums)        # hums of the first record found under a model of an effect
+        self.input_noise_V = self.input_noise_um2 = 0.0   # the measured voltage's own noise (see decide)
         self.halves_asked = halves_asked
         self.source, self.validate_source = records.source, records.validate_source
         self.v, self.y, self.sample_rate_hz = records.v, records.y, records.sample_rate_hz
@@ -600,7 +601,16 @@ class _DiagnosisRun:
     # -- helpers the phases share ------------------------------------------------------------------
 
     def _reported(self, result):
-        """The result with the artefacts found here, and their sentence in ``why``."""
+        """The result with the artefacts found here, and their sentence in ``why`` (and the voltage's
+        noise where it weighs)."""
+        noise_um = getattr(self, "noise", 0.0)
+        if noise_um and self.input_noise_um2 >= NEAR_NOISE_FRACTION * noise_um**2:
+            result = replace(result, why=(
+                f"{result.why}. The voltage holds white noise of {self.input_noise_V:.3g} V "
+                f"({100 * self.input_noise_V / float(np.ptp(self.v)):.2g} % of its range), which adds "
+                f"{self.input_noise_um2 / noise_um**2:.2g} σ² to every model's error through the actuator's gain: "
+                "a cause must remove more (a low-pass filters that noise out of the prediction); record the "
+                "commanded voltage, or one filtered below the actuator's band"))
         if not self.artefacts:
             return result
         sentence = artefacts_sentence(self.artefacts, self.source or "the first record",
@@ -812,7 +822,8 @@ class _DiagnosisRun:
                                                     baseline.mse_um2, richer.mse_um2, noise, complexity, consistent,
                                                     self._outranks, self._removed_where_states_seen(),
                                                     self._removed_beside_hold_levels(),
-                                                    self._unexplained_where_moved()), first_shape)
+                                                    self._unexplained_where_moved(), self._input_noise_um2()),
+                                             first_shape)
         for c, ev in candidates.items():
             ev.significant = self.verdict["significant"][c]
         if self.unidentified and self.verdict["cause"] in ("unexplained", "drift"):
@@ -877,6 +888,15 @@ class _DiagnosisRun:
         return self._removed_as_scored(
             lambda ev: blocked_score(y, without_hold_levels(y, ev.cv_prediction_um, runs, folds), folds)[1],
             "removed_beside_hold_levels_sigma2")
+
+    def _input_noise_um2(self) -> float:
+        """What the measured voltage's own noise adds to every model's mean-square error (µm²): its σ
+        (:func:`pysim.diagnosis.residuals.input_noise_sigma`) times the record's gain, squared."""
+        span_V = float(np.ptp(self.v))
+        gain = float(np.ptp(self.y)) / span_V if span_V > 0 else 0.0
+        self.input_noise_V = input_noise_sigma(self.v)
+        self.input_noise_um2 = (gain * self.input_noise_V) ** 2
+        return self.input_noise_um2
 
     def _unexplained_where_moved(self) -> tuple:
         """The candidates whose input stage moves only a few samples of the record and does not remove
@@ -1814,6 +1834,7 @@ class _DiagnosisRun:
                          excitation_plan=plan, start_excluded_samples=self.start,
                          records_swapped=bool(self.swap_reason), swap_reason=self.swap_reason,
                          steps=cv_verdict.get("steps"), shape=self.shape, noise_free=self.noise_free,
+                         voltage_noise_V=self.input_noise_V,
                          general_model=self.general_model, moving_holds=self.moving_holds,
                          rate_independent_spreads=self.fitter.rate_independent_spreads,
                          richer_determined=self.fitter.richer_determined)

@@ -58,6 +58,10 @@ class Diagnosis:
         The record fitted shows no measurable noise (a simulation:
         :func:`pysim.diagnosis.residuals.is_noise_free`); ``noise_um`` is then
         0.1 % of its range, the lowest noise the diagnosis was measured at.
+    voltage_noise_V : float
+        σ of the white noise of the voltage as measured
+        (:func:`pysim.diagnosis.residuals.input_noise_sigma`); a cause must
+        remove more error than it adds to every model (:func:`decide`).
     moving_holds : dict or None
         When the holds of the input moved where nothing else was named and a
         cause's model took up that motion
@@ -117,6 +121,7 @@ class Diagnosis:
     shape: dict = field(default_factory=dict)
     artefacts: list = field(default_factory=list)
     noise_free: bool = False
+    voltage_noise_V: float = 0.0
     general_model: dict = None
     moving_holds: dict = None
     rate_independent_spreads: tuple = None
@@ -183,6 +188,7 @@ class Diagnosis:
                 "noise_um": self.noise_um,
                 "noise_pct": 100.0 * self.noise_um / span if span > 0 else float("nan"),
                 "noise_free": self.noise_free,
+                "voltage_noise_V": self.voltage_noise_V,
                 "split": self.split.as_dict(self.sample_period_s),
                 "scoring": {"method": "blocked cross-validation", "folds": self.folds,
                             "scored_samples": self.scored_samples,
