@@ -601,16 +601,7 @@ class _DiagnosisRun:
     # -- helpers the phases share ------------------------------------------------------------------
 
     def _reported(self, result):
-        """The result with the artefacts found here, and their sentence in ``why`` (and the voltage's
-        noise where it weighs)."""
-        noise_um = getattr(self, "noise", 0.0)
-        if noise_um and self.input_noise_um2 >= NEAR_NOISE_FRACTION * noise_um**2:
-            result = replace(result, why=(
-                f"{result.why}. The voltage holds white noise of {self.input_noise_V:.3g} V "
-                f"({100 * self.input_noise_V / float(np.ptp(self.v)):.2g} % of its range), which adds "
-                f"{self.input_noise_um2 / noise_um**2:.2g} σ² to every model's error through the actuator's gain: "
-                "a cause must remove more (a low-pass filters that noise out of the prediction); record the "
-                "commanded voltage, or one filtered below the actuator's band"))
+        """The result with the artefacts found here, and their sentence in ``why``."""
         if not self.artefacts:
             return result
         sentence = artefacts_sentence(self.artefacts, self.source or "the first record",
@@ -888,6 +879,17 @@ class _DiagnosisRun:
         return self._removed_as_scored(
             lambda ev: blocked_score(y, without_hold_levels(y, ev.cv_prediction_um, runs, folds), folds)[1],
             "removed_beside_hold_levels_sigma2")
+
+    def _voltage_noise_sentence(self) -> str:
+        """What the voltage's own noise adds to every model, where it weighs ('' elsewhere)."""
+        noise_um = self.noise
+        if not noise_um or self.input_noise_um2 < NEAR_NOISE_FRACTION * noise_um**2:
+            return ""
+        return (f". The voltage holds white noise of {self.input_noise_V:.3g} V "
+                f"({100 * self.input_noise_V / float(np.ptp(self.v)):.2g} % of its range), which adds "
+                f"{self.input_noise_um2 / noise_um**2:.2g} σ² to every model's error through the actuator's gain: "
+                "a cause must remove more (a low-pass filters that noise out of the prediction); record the "
+                "commanded voltage, or one filtered below the actuator's band")
 
     def _input_noise_um2(self) -> float:
         """What the measured voltage's own noise adds to every model's mean-square error (µm²): its σ
@@ -1823,6 +1825,7 @@ class _DiagnosisRun:
                                                                                               second=second))
             if turned is not None and turned.cause in EFFECTS:
                 return turned
+        why += self._voltage_noise_sentence()
         return Diagnosis(cause=cause, split=self.split, sample_period_s=self.T, noise_um=noise,
                          baseline=self.baseline, candidates=candidates, extended=extended, statistics=statistics,
                          reasons=_reasons(candidates, stats, cv_verdict.get("steps")), why=why, time_s=self.time,
