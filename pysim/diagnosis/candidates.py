@@ -626,6 +626,26 @@ class CandidateFitter:
                                   "displacement_creep_shares": tuple(shares.tolist())},
                           transform=OutputStages(sections))
 
+    def output_curvature(self, base: Family, prediction_um) -> Family:
+        """The rate-independent ``base`` with a static curvature of its output: the square of
+        ``prediction_um`` (a rate-independent fit's prediction on this record, standardised) as one
+        more linear column.
+
+        Still rate-independent: a sensor whose reading bows with the displacement, or a plant whose
+        hysteresis passes through a static nonlinearity (a superposition operator after the
+        operators), bends the loop's two branches alike, which the MPI class cannot do (its
+        descending branches follow from its ascending ones).  On one sine that shape error is what a
+        lag also changes; this reference lets the diagnosis tell the two apart.  Linear in the square
+        of a fitted prediction instead of the model's own output: the curvature is small, so the
+        difference is of second order.
+        """
+        p = np.asarray(prediction_um, dtype=float)
+        spread = float(np.std(p))
+        if p.shape != self.v.shape or not spread > 0:
+            raise DiagnosisError("an output curvature needs a moving prediction of every sample")
+        q = (p - float(np.mean(p))) / spread
+        return self._with(base, base.cause, parameters={"output_curvature": True}, extras={"q2": q * q})
+
     def drift(self, base: Family, degree: int) -> Family:
         time = np.arange(self.v.size) * self.T
         scale = max(self.v.size * self.T, self.T)

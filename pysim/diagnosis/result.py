@@ -167,6 +167,7 @@ class Diagnosis:
                 "mse_removed_over_noise": ev.excess_over_noise, "significant": ev.significant,
                 "mse_removed_where_states_seen_over_noise": _plain(ev.removed_where_states_seen_sigma2),
                 "mse_removed_beside_hold_levels_over_noise": _plain(ev.removed_beside_hold_levels_sigma2),
+                "mse_removed_beyond_output_curvature_over_noise": _plain(ev.removed_beyond_output_curvature_sigma2),
                 "miss_where_stage_moves_over_noise": _moved_miss(ev.explained_where_moved),
                 "train_rms_pct": ev.train_rms_pct, "parameters": _plain(ev.fit.parameters),
                 "reason": self.reasons.get(cause, ""), "gain_vs_rate_independent_pct": ev.gain_vs_richer_pct,

@@ -66,7 +66,7 @@ _OUTSIDE = (" (an effect it does not hold, or a hysteresis that no MPI model can
 def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um: float, complexity: dict,
            consistent: dict | None = None, outranks=None, removed_where_states_seen: dict | None = None,
            removed_beside_hold_levels: dict | None = None, unexplained_where_moved=(),
-           input_noise_um2: float = 0.0):
+           input_noise_um2: float = 0.0, removed_beyond_output_curvature: dict | None = None):
     """Name the cause from out-of-sample mean-square errors (µm²).
 
     Parameters
@@ -121,14 +121,23 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
         effect is (independent seeds 1000-1019 with 0.2 % of the range of white
         noise on the voltage: an input low-pass named on 7 of 20).  A voltage
         command without noise gives about nothing.
+    removed_beyond_output_curvature : dict, optional
+        Candidate cause → the mean-square error (µm²) it removes against the
+        better rate-independent model with a static curvature of its output
+        (:func:`pysim.diagnosis.scoring.output_curvature_reference`).  The
+        same test as ``removed_where_states_seen``: a loop whose two branches
+        bend alike (a sensor that bows, a static nonlinearity after the
+        hysteresis) is a rate-independent shape, and an advantage that such a
+        model has as well is not an effect (on one sine a lag widens the loop
+        where the bow bends it).
 
     Returns
     -------
     dict with ``cause``, ``causes`` (tuple), ``significant`` (cause → bool),
     ``best`` (the best candidate or None), ``explained_share``, ``text``,
-    ``not_where_states_seen``, ``not_beside_hold_levels`` and
-    ``not_where_moved`` (the causes significant but for the last three
-    rules, each by its own).
+    ``not_where_states_seen``, ``not_beside_hold_levels``,
+    ``not_beyond_output_curvature`` and ``not_where_moved`` (the causes
+    significant but for the last four rules, each by its own).
 
     Examples
     --------
@@ -165,11 +174,12 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
                      and not removed_where.get(c, math.inf) > SEEN_SHARE * (ref - mse[c]))
 
     not_seen, not_beside_levels = lost(removed_where_states_seen), lost(removed_beside_hold_levels)
-    vetoed = tuple(c for c in mse if c in not_seen or c in not_beside_levels)
+    not_beyond_curvature = lost(removed_beyond_output_curvature)
+    vetoed = tuple(c for c in mse if c in not_seen or c in not_beside_levels or c in not_beyond_curvature)
     if len(vetoed) < sum(significant.values()):
-        vetoed = not_seen = not_beside_levels = ()
+        vetoed = not_seen = not_beside_levels = not_beyond_curvature = ()
     lost_where = {"not_where_states_seen": not_seen, "not_beside_hold_levels": not_beside_levels,
-                  "not_where_moved": not_moved}
+                  "not_beyond_output_curvature": not_beyond_curvature, "not_where_moved": not_moved}
     for c in vetoed:
         significant[c] = False
     named = [c for c in mse if significant[c]]

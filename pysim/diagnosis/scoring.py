@@ -22,7 +22,7 @@ from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.rules import DYNAMICS, squared_error_gain
 from pysim.identification.identify import IdentificationError
 
-__all__ = ["MIN_SCORED_PER_BLOCK", "Evaluation", "fit_candidates"]
+__all__ = ["MIN_SCORED_PER_BLOCK", "Evaluation", "fit_candidates", "output_curvature_reference"]
 
 
 #: Where the held-out samples are also required to keep every operator in the states training showed
@@ -72,6 +72,11 @@ class Evaluation:
         The same on a staircase with each hold's level taken out of every
         model's residual (:func:`pysim.diagnosis.holds.without_hold_levels`);
         NaN on other records and for a rate-independent model.
+    removed_beyond_output_curvature_sigma2 : float
+        Mean-square error removed (σ², held out) against the better
+        rate-independent model with a static curvature of its output
+        (:func:`output_curvature_reference`); NaN where there is none and for
+        a rate-independent model.
     explained_where_moved : tuple or None
         For an input stage that moves only a few samples: the squared miss
         (σ², summed) of the rate-independent fit and of this model on the
@@ -96,6 +101,7 @@ class Evaluation:
     structures: list = field(default_factory=list, repr=False)
     removed_where_states_seen_sigma2: float = float("nan")
     removed_beside_hold_levels_sigma2: float = float("nan")
+    removed_beyond_output_curvature_sigma2: float = float("nan")
     explained_where_moved: tuple = None
 
     @property
@@ -179,6 +185,20 @@ def rate_independent_models(fitter: CandidateFitter, run, folds, character, y, m
         # the record cannot support more operators: the baseline is the richest model it supports
         richer = _evaluate(fitter, baseline.fit.family, baseline.fit, folds, character, y, mask)
     return baseline, richer
+
+
+def output_curvature_reference(fitter: CandidateFitter, run, baseline, richer):
+    """The better, out of sample, of the baseline and the richer model each with a static curvature of
+    its output (:meth:`CandidateFitter.output_curvature`, on the baseline's prediction); None when
+    the record supports neither."""
+    evaluations = []
+    for rate_independent in (baseline, richer):
+        try:
+            family = fitter.output_curvature(rate_independent.fit.family, baseline.prediction_um)
+            evaluations.append(run(family))
+        except (IdentificationError, DiagnosisError):
+            continue     # (a square the operators already span: nothing to add)
+    return min(evaluations, key=lambda ev: ev.mse_um2) if evaluations else None
 
 
 def cv_runner(fitter: CandidateFitter, folds, character, y, mask):

@@ -224,7 +224,8 @@ def _named_by_second_record(s: _SecondRecordScores, complexity, outranks=None) -
     # advantage came from the weights a few samples it moved lever (not_where_moved): its model carries
     # those weights to the second record
     vetoed_first = set().union(*(s.cv_verdict.get(key) or () for key in
-                                 ("not_where_states_seen", "not_beside_hold_levels", "not_where_moved")))
+                                 ("not_where_states_seen", "not_beside_hold_levels", "not_beyond_output_curvature",
+                                  "not_where_moved")))
     if verdict["cause"] in vetoed_first and not _second_record_decisive(s, verdict):
         verdict = named_without(worse_where_fitted | vetoed_first)
     if verdict["cause"] not in EFFECTS:
