@@ -67,8 +67,9 @@ from pysim.diagnosis.residuals import record_noise_sigma
 from pysim.identification.errors import IdentificationError
 from pysim.identification.identify import identify
 
-__all__ = ["ARTEFACT_SIGMAS", "FLAT_RUN_SAMPLES", "MAX_JUMPS", "MAINS_HZ", "REPAIRABLE", "record_artefacts",
-           "find_artefacts", "mains_hums", "repaired_displacement", "artefacts_sentence", "artefact_label"]
+__all__ = ["ARTEFACT_SIGMAS", "FLAT_RUN_SAMPLES", "MAX_JUMPS", "MAINS_HZ", "REPAIRABLE", "KIND_PLURALS",
+           "record_artefacts", "find_artefacts", "mains_hums", "repaired_displacement", "artefacts_sentence",
+           "artefact_label"]
 
 #: An artefact stands this many noise σ out of what the noise makes.
 ARTEFACT_SIGMAS = 10.0
@@ -186,10 +187,15 @@ def record_artefacts(voltage_V, displacement_um, residual_um, noise_um: float, s
     jumps = [a for a in _jumps(r, limit, near_step, near_step | _near_input_corners(v))
              if not ends & {a["sample"] - 1, a["sample"], a["sample"] + 1}]
     found = hums + _spikes(r, limit, near_step) + _actuators_own(jumps) + flat
+    return sorted(_placed(found, noise_um, sample_rate_hz), key=lambda a: a["sample"])
+
+
+def _placed(found, noise_um: float, sample_rate_hz: float) -> list:
+    """``found`` with each artefact's ``time_s`` and ``size_over_noise`` set."""
     for a in found:
         a["time_s"] = a["sample"] / sample_rate_hz
         a["size_over_noise"] = abs(a["size_um"]) / noise_um
-    return sorted(found, key=lambda a: a["sample"])
+    return found
 
 
 def find_artefacts(voltage_V, displacement_um, sample_rate_hz: float, *, fit=None, **fit_options) -> list:
@@ -280,11 +286,15 @@ def repaired_displacement(displacement_um, artefacts) -> np.ndarray:
 def _hum_sum(hums, n_samples: int) -> np.ndarray:
     """The sum of the sinusoids of ``hums`` over ``n_samples`` samples (zero without any)."""
     total = np.zeros(n_samples)
-    k = np.arange(n_samples)
     for a in hums:
-        phase = 2.0 * np.pi * a["cycles_per_sample"] * k
-        total += a["cos_um"] * np.cos(phase) + a["sin_um"] * np.sin(phase)
+        total += _wave(n_samples, a["cycles_per_sample"], a["cos_um"], a["sin_um"])
     return total
+
+
+def _wave(n_samples: int, cycles_per_sample: float, cos_coefficient: float, sin_coefficient: float) -> np.ndarray:
+    """``cos_coefficient cos(2π c k) + sin_coefficient sin(2π c k)`` at samples ``k = 0 … n - 1``."""
+    phase = 2.0 * np.pi * cycles_per_sample * np.arange(n_samples)
+    return cos_coefficient * np.cos(phase) + sin_coefficient * np.sin(phase)
 
 
 def _sinusoid(x, cycles_per_sample: float) -> tuple:
@@ -320,7 +330,7 @@ def _dominant_input_lines(v, n_fft: int) -> list:
         if removed < _DOMINANT_INPUT_SHARE * total:
             break
         lines.append((cycles, removed / total))
-        x = x - _hum_sum([{"cycles_per_sample": cycles, "cos_um": cos_v, "sin_um": sin_v}], x.size)
+        x = x - _wave(x.size, cycles, cos_v, sin_v)
     return lines
 
 
@@ -373,17 +383,15 @@ def mains_hums(voltage_V, residual_um, noise_um: float, sample_rate_hz: float) -
     r = np.asarray(residual_um, dtype=float).ravel()
     if not (noise_um > 0 and math.isfinite(noise_um)) or r.size != v.size or not np.all(np.isfinite(r)):
         return []
-    found = _hums(v, r, noise_um, sample_rate_hz)
-    for a in found:
-        a["time_s"], a["size_over_noise"] = 0.0, a["size_um"] / noise_um
-    return found
+    return _placed(_hums(v, r, noise_um, sample_rate_hz), noise_um, sample_rate_hz)
 
 
 def _floor(power, nominal_hz: float, bin_hz: float) -> float:
     """The mean of a periodogram's noise beside the mains frequency ``nominal_hz`` (the median of its
     values within :data:`_FLOOR_BAND` of it, outside twice the search band, over ln 2: the median of an
     exponential distribution)."""
-    beside = np.r_[power[int(nominal_hz * (1 - _FLOOR_BAND) / bin_hz):int(nominal_hz * (1 - 2 * _MAINS_TOLERANCE) / bin_hz)],
+    beside = np.r_[power[int(nominal_hz * (1 - _FLOOR_BAND) / bin_hz):
+                         int(nominal_hz * (1 - 2 * _MAINS_TOLERANCE) / bin_hz)],
                    power[int(nominal_hz * (1 + 2 * _MAINS_TOLERANCE) / bin_hz) + 1:
                          int(nominal_hz * (1 + _FLOOR_BAND) / bin_hz) + 1]]
     return float(np.median(beside)) / math.log(2.0)
@@ -404,7 +412,8 @@ def _hums(v, r, noise_um: float, sample_rate_hz: float) -> list:
     input_lines = input_power = None
     found = []
     for f0 in nominal:
-        lo, hi = int(math.floor(f0 * (1 - _MAINS_TOLERANCE) / bin_hz)), int(math.ceil(f0 * (1 + _MAINS_TOLERANCE) / bin_hz))
+        lo = int(math.floor(f0 * (1 - _MAINS_TOLERANCE) / bin_hz))
+        hi = int(math.ceil(f0 * (1 + _MAINS_TOLERANCE) / bin_hz))
         peak = lo + int(np.argmax(power[lo:hi + 1]))
         if not power[peak] > _LINE_OVER_FLOOR * _floor(power, f0, bin_hz):
             continue
@@ -415,7 +424,7 @@ def _hums(v, r, noise_um: float, sample_rate_hz: float) -> list:
         if rms < _HUM_MIN_RMS_SIGMAS * noise_um:
             continue
         # the same line over the whole record: each part's own sinusoid removes little more there
-        line = _hum_sum([{"cycles_per_sample": cycles, "cos_um": cos_um, "sin_um": sin_um}], n)
+        line = _wave(n, cycles, cos_um, sin_um)
         own = global_ = 0.0
         for part in np.array_split(np.arange(n), max(4, int(cycles * n / _HUM_PERIODS_PER_PART))):
             own += _sinusoid(r[part], cycles)[2]
@@ -427,7 +436,8 @@ def _hums(v, r, noise_um: float, sample_rate_hz: float) -> list:
         if input_power is None:
             input_power = _periodogram(v, n_fft)
         near = int(round(cycles * n_fft))
-        if np.max(input_power[max(near - padding, 0):near + padding + 1]) > _INPUT_LINE_OVER_FLOOR * _floor(input_power, f0, bin_hz):
+        input_line = np.max(input_power[max(near - padding, 0):near + padding + 1])
+        if input_line > _INPUT_LINE_OVER_FLOOR * _floor(input_power, f0, bin_hz):
             continue
         if input_lines is None:
             input_lines = _dominant_input_lines(v, n_fft)
@@ -654,7 +664,7 @@ def artefacts_sentence(artefacts, first_name: str = "the record", second_name: s
                "hum": "a hum's sinusoid subtracted"}
         counts = {k: sum(a["kind"] == k for a in repaired) for k in REPAIRABLE}
         kinds = [k for k in REPAIRABLE if counts[k]]
-        names = _and(k if counts[k] == 1 else _PLURALS[k] for k in kinds)
+        names = _and(k if counts[k] == 1 else KIND_PLURALS[k] for k in kinds)
         tail.append(f"the {names} {'was' if len(repaired) == 1 else 'were'} repaired before the diagnosis "
                     f"({'; '.join(how[k] for k in kinds)})")
     if kept:
@@ -663,7 +673,8 @@ def artefacts_sentence(artefacts, first_name: str = "the record", second_name: s
     return "; and ".join(sentences) + ". " + tail[0].upper() + tail[1:]
 
 
-_PLURALS = {"spike": "spikes", "jump": "jumps", "hum": "hums", "clipped": "clipped runs", "stuck": "frozen runs"}
+#: Each kind's name in the plural, as the sentences and the report write it.
+KIND_PLURALS = {"spike": "spikes", "jump": "jumps", "hum": "hums", "clipped": "clipped runs", "stuck": "frozen runs"}
 
 
 def _and(words) -> str:

@@ -27,6 +27,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from pysim.core.fileio import staged_directory
+from pysim.diagnosis.artefacts import KIND_PLURALS
 from pysim.diagnosis.result import Diagnosis
 from pysim.diagnosis.residuals import binned_mean, cross_correlation, spectrum, time_since_change
 from pysim.diagnosis.rules import MIN_GAIN_PCT, NEAR_NOISE_BATCHES, NEAR_NOISE_FRACTION, NEAR_NOISE_T, NOISE_FRACTION
@@ -151,7 +152,7 @@ def plot_overview(d: Diagnosis, path: Path):
                       + ("\n(the baseline fitted on the whole record, the extended model on it and the second record;"
                          "\n" if d.fitted_on_both_records else "\n(models fitted on the whole record; ")
                       + "every block is held out in turn for the scores, grey: the last block)", fontsize=10)
-    repaired = sorted({a["kind"] + "s" for a in d.artefacts if a["repaired"] and a["record"] == "first"})
+    repaired = sorted({KIND_PLURALS[a["kind"]] for a in d.artefacts if a["repaired"] and a["record"] == "first"})
     axes[1].plot(t, d.displacement_um, color=MEASURED_COLOUR, lw=0.8,
                  label="measured" + (f" ({' and '.join(repaired)} repaired)" if repaired else ""))
     _mark_artefacts(axes[1:], d)

@@ -69,6 +69,9 @@ _TAB_WORDS = ("tab", "\\t", "\t")
 _DELIMITER_NAMES = {",": "comma ','", ";": "semicolon ';'", "\t": "tab", " ": "spaces",
                     "|": "bar '|'", ":": "colon ':'"}
 _DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+([eE][+-]?\d+)?")
+# Relative spread of the sampling intervals below which a record counts as
+# uniformly sampled (timestamps rounded by the logger jitter by far less).
+_UNIFORM_SPREAD = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,7 +163,7 @@ def estimate_sample_rate(time_s) -> float:
     if not interval > 0:
         return math.nan
     deviation = np.abs(np.diff(t) - interval)
-    if np.all(deviation <= 0.01 * interval):
+    if np.all(deviation <= _UNIFORM_SPREAD * interval):
         return float((t.size - 1) / (t[-1] - t[0]))      # a logger's jitter: the first and last times
     if np.all(deviation <= EVEN_SAMPLING_SPREAD * interval):
         # times rounded to a good part of an interval: the first and last are off by up to half the
