@@ -37,31 +37,40 @@ HYST_API double hyst_output(const HystModel *m, double voltage,
 /* hyst_output in place, in one pass: with a run-time operator count the
  * local block only adds loop overhead, so a record loop (the host library's)
  * updates its state directly.  Same operations in the same order as
- * hyst_output, hence the same bits (tested). */
-static double output_in_place(const HystModel *m, double voltage, double *state)
+ * hyst_output, hence the same bits (tested).  threshold_scale multiplies every
+ * threshold at this sample (1.0 leaves each one's bits as they are). */
+static double output_in_place(const HystModel *m, double voltage, double threshold_scale, double *state)
 {
     const double u = voltage - m->input_offset;
     double y = (m->a1 * u * u + m->a2) * u;
     for (int i = 0; i < m->n_operators; i++) {
-        state[i] = hyst_operator_step(m->operator_kind, u, m->thresholds[i], state[i]);
+        state[i] = hyst_operator_step(m->operator_kind, u, m->thresholds[i] * threshold_scale, state[i]);
         y += m->weights[i] * state[i];
     }
     return y + m->output_offset;
 }
 
-HYST_API void hyst_simulate(const HystModel *m, size_t n_samples,
-                            const double *voltage, double *state,
-                            double *displacement, double *operator_outputs)
+HYST_API void hyst_simulate_scaled(const HystModel *m, size_t n_samples,
+                                   const double *voltage, const double *threshold_scale,
+                                   double *state, double *displacement, double *operator_outputs)
 {
     const size_t n = (size_t)m->n_operators;
     for (size_t k = 0; k < n_samples; k++) {
-        displacement[k] = output_in_place(m, voltage[k], state);
+        const double scale = threshold_scale ? threshold_scale[k] : 1.0;
+        displacement[k] = output_in_place(m, voltage[k], scale, state);
         if (operator_outputs) {
             for (size_t i = 0; i < n; i++) {
                 operator_outputs[k * n + i] = state[i];
             }
         }
     }
+}
+
+HYST_API void hyst_simulate(const HystModel *m, size_t n_samples,
+                            const double *voltage, double *state,
+                            double *displacement, double *operator_outputs)
+{
+    hyst_simulate_scaled(m, n_samples, voltage, NULL, state, displacement, operator_outputs);
 }
 
 /* h(u) - target for the shifted input u, with the operator state frozen at

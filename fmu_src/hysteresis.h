@@ -76,6 +76,13 @@ HYST_API void hyst_simulate(const HystModel *m, size_t n_samples,
                             const double *voltage, double *state,
                             double *displacement, double *operator_outputs);
 
+/* hyst_simulate with every threshold of sample k multiplied by
+ * threshold_scale[k] (>= 0; NULL: 1): operators whose thresholds change with
+ * time, such as thresholds that grow with the input's rate (host only). */
+HYST_API void hyst_simulate_scaled(const HystModel *m, size_t n_samples,
+                                   const double *voltage, const double *threshold_scale,
+                                   double *state, double *displacement, double *operator_outputs);
+
 /* Exact inverse of one sample: finds the voltage v in [v_lo, v_hi] with
  * hyst_output(m, v, state) == displacement, to machine precision, for a model
  * that is strictly increasing along every branch.  Writes the voltage and the

@@ -14,7 +14,7 @@ from pysim.specs.default_mpi import MODEL
 from build_fmu.cli import main
 from pysim.core.input_stage import InputStageModel
 from pysim.core.model import HysteresisModel
-from pysim.core.spec import write_spec
+from pysim.core.spec import load_spec, write_spec
 from pysim.fmu import BuildError, build_fmus, macho
 from pysim.fmu.generate import config_header, model_guid
 from pysim.fmu.package import fmu_bytes
@@ -160,6 +160,22 @@ def test_a_spec_with_an_input_stage_is_refused_unless_the_part_after_it_is_asked
     built = build_fmus(spec, out, ("linux64",), without_input_stage=True, progress=said.append)
     assert built["plant"].name == "slewed_plant.fmu"
     assert any("slew limit 250 V/ms left out" in line for line in said)
+
+
+def test_thresholds_that_grow_with_the_rate_survive_the_spec_and_are_refused_by_the_fmus(tmp_path):
+    # the spec written by `pysim diagnose --out` for that structure loads as the same model (every bit
+    # of a record's prediction), and the FMUs, which hold fixed thresholds, refuse it with its name
+    grown = InputStageModel(MODEL.with_parameters(name="grown"), "rate_thresholds", 2e-5, 1e-4)
+    spec = write_spec(grown, tmp_path / "grown.py")
+    v = 75.0 + 70.0 * np.sin(np.linspace(0.0, 40.0, 3000)) ** 3
+    loaded = load_spec(spec)
+    assert loaded.kind == "rate_thresholds" and np.array_equal(loaded.simulate(v), grown.simulate(v))
+    assert not np.allclose(grown.simulate(v), grown.plant.simulate(v))
+    result = run_cli(spec, "-o", tmp_path / "out")
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "thresholds that grow with the input rate, +2 % per V/ms" in lines[0]
+    assert "--without-input-stage" in lines[0] and not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize("problem, expected", [

@@ -606,7 +606,8 @@ class ExtendedModel:
     rest_state = initial_state
 
     # ------------------------------------------------------------ forward
-    def simulate(self, voltage_V, state=None, *, return_state=False, return_operators=False):
+    def simulate(self, voltage_V, state=None, *, return_state=False, return_operators=False,
+                 threshold_scale=None):
         """Displacement (µm) for a voltage record (V) sampled at ``sample_period_s``.
 
         Parameters
@@ -616,7 +617,7 @@ class ExtendedModel:
         state : ExtendedState, optional
             State after a previous call (default: demagnetised operators and
             output stages at rest at the first sample).
-        return_state, return_operators : bool
+        return_state, return_operators, threshold_scale
             As in :meth:`pysim.core.model.HysteresisModel.simulate`; the state is an
             :class:`ExtendedState`.
         """
@@ -625,7 +626,8 @@ class ExtendedModel:
             raise ModelError(f"the state of an extended model is an ExtendedState, got {type(state).__name__}")
         hysteresis, runner = self.hysteresis, self.stages.runner
         operators = hysteresis.initial_state() if state is None else state.operators
-        h, operators, ops = hysteresis.simulate(v, operators, return_state=True, return_operators=True)
+        h, operators, ops = hysteresis.simulate(v, operators, return_state=True, return_operators=True,
+                                                threshold_scale=threshold_scale)
         u = v - hysteresis.input_offset_V
         samples = 0 if state is None else int(state.samples)
         if state is None:

@@ -12,7 +12,15 @@ not the voltage commanded.
     ``x_k = x_{k−1} + clip(v_k − x_{k−1}, −R T, R T)``.  Slow inputs pass
     unchanged; fast, large steps are turned into ramps.
 
-Both start at rest at the first sample.  :class:`InputStageModel` composes
+``rate_thresholds``
+    Not a stage of the voltage but of the operators: every threshold grows
+    with the input's rate, ``r_i(t) = r_i (1 + γ |v̇(t)|)`` (γ in s/V, the rate
+    the backward difference ``(v_k − v_{k−1}) / T``, 0 at the first sample).
+    Loops widen with frequency while a slow input sees the rate-independent
+    thresholds -- the rate-dependent Prandtl-Ishlinskii models of the
+    literature.  The operators see the voltage itself.
+
+All start at rest at the first sample.  :class:`InputStageModel` composes
 such a stage with a plant model (a :class:`pysim.core.extended.ExtendedModel`
 or :class:`pysim.core.model.HysteresisModel`).  It runs on the host (the slew
 limit's recursion in the C kernel, ``fmu_src/input_stages.c``): the plant
@@ -31,9 +39,10 @@ from pysim.core import kernel as _kernel
 from pysim.core.errors import ModelError
 from pysim.core.extended import first_order_section
 
-__all__ = ["INPUT_STAGE_KINDS", "InputStageModel", "apply_input_stage", "input_lowpass", "slew_limit"]
+__all__ = ["INPUT_STAGE_KINDS", "InputStageModel", "apply_input_stage", "input_lowpass", "rate_threshold_scale",
+           "slew_limit", "stage_threshold_scale"]
 
-INPUT_STAGE_KINDS = ("lowpass", "slew_limit")
+INPUT_STAGE_KINDS = ("lowpass", "slew_limit", "rate_thresholds")
 
 
 def input_lowpass(voltage_V, time_constant_s: float, sample_period_s: float) -> np.ndarray:
@@ -80,14 +89,40 @@ def slew_limit(voltage_V, rate_V_per_s: float, sample_period_s: float) -> np.nda
     return followed
 
 
+def rate_threshold_scale(voltage_V, growth_s_per_V: float, sample_period_s: float) -> np.ndarray:
+    """Factor ``1 + γ |v̇|`` on every threshold at each sample (``γ = growth_s_per_V``; the rate a
+    backward difference, 0 at the first sample).
+
+    Examples
+    --------
+    >>> rate_threshold_scale([0.0, 1.0, 1.0, 0.0], 0.5e-3, 1e-3).tolist()
+    [1.0, 1.5, 1.0, 1.5]
+    """
+    v = np.asarray(voltage_V, dtype=float).ravel()
+    rate = np.abs(np.diff(v, prepend=v[:1])) / sample_period_s
+    return 1.0 + max(float(growth_s_per_V), 0.0) * rate
+
+
 def apply_input_stage(kind: str, parameter: float, voltage_V, sample_period_s: float) -> np.ndarray:
-    """Run the input stage ``kind`` (:data:`INPUT_STAGE_KINDS`) with its parameter
-    (time constant in s, or rate in V/s)."""
+    """The voltage the operators see behind the input stage ``kind`` (:data:`INPUT_STAGE_KINDS`) with
+    its parameter (time constant in s, rate in V/s, or threshold growth in s/V: the voltage itself)."""
     if kind == "lowpass":
         return input_lowpass(voltage_V, parameter, sample_period_s)
     if kind == "slew_limit":
         return slew_limit(voltage_V, parameter, sample_period_s)
+    if kind == "rate_thresholds":
+        return np.array(voltage_V, dtype=float).ravel()
     raise ModelError(f"unknown input stage {kind!r}; known: {INPUT_STAGE_KINDS}")
+
+
+def stage_threshold_scale(kind: str, parameter: float, voltage_V, sample_period_s: float):
+    """The factor on the operators' thresholds at each sample behind the input stage ``kind``
+    (:func:`rate_threshold_scale`), or None where the stage leaves them as they are."""
+    if kind == "rate_thresholds":
+        return rate_threshold_scale(voltage_V, parameter, sample_period_s)
+    if kind not in INPUT_STAGE_KINDS:
+        raise ModelError(f"unknown input stage {kind!r}; known: {INPUT_STAGE_KINDS}")
+    return None
 
 
 @dataclass(frozen=True)
@@ -98,9 +133,10 @@ class InputStageModel:
     ----------
     plant : ExtendedModel or HysteresisModel
         What follows the stage.
-    kind : {"lowpass", "slew_limit"}
+    kind : {"lowpass", "slew_limit", "rate_thresholds"}
     parameter : float
-        Time constant (s) of the low-pass, or rate (V/s) of the slew limit.
+        Time constant (s) of the low-pass, rate (V/s) of the slew limit, or growth γ (s/V) of
+        the thresholds with the input's rate.
     sample_period_s : float
 
     Examples
@@ -157,16 +193,36 @@ class InputStageModel:
         'slew limit 420 V/ms'
         >>> InputStageModel(h, "lowpass", 1.9e-4, 1e-4).stage_summary()
         'input low-pass, time constant 0.19 ms'
+        >>> InputStageModel(h, "rate_thresholds", 2e-5, 1e-4).stage_summary()
+        'thresholds that grow with the input rate, +2 % per V/ms'
         """
         if self.kind == "slew_limit":
             return f"slew limit {self.parameter / 1e3:.4g} V/ms"
+        if self.kind == "rate_thresholds":
+            return f"thresholds that grow with the input rate, +{self.parameter * 1e5:.4g} % per V/ms"
         return f"input low-pass, time constant {self.parameter * 1e3:.4g} ms"
 
     def stage_input(self, voltage_V) -> np.ndarray:
         """The voltage the actuator sees after the input stage."""
         return apply_input_stage(self.kind, self.parameter, voltage_V, self.sample_period_s)
 
+    def threshold_scale(self, voltage_V):
+        """The factor on every threshold at each sample of ``voltage_V``, or None
+        (:func:`stage_threshold_scale`)."""
+        return stage_threshold_scale(self.kind, self.parameter, voltage_V, self.sample_period_s)
+
     def simulate(self, voltage_V, state=None, **options):
         """Displacement (µm) for a voltage record (V): the input stage (from rest
-        at the first sample), then the plant (``state`` and options as the plant's)."""
+        at the first sample), then the plant (``state`` and options as the plant's).
+
+        Examples
+        --------
+        >>> from pysim.core.model import HysteresisModel
+        >>> h = HysteresisModel(0.0, 0.0, (0.0, 1.0), (0.0, 1.0), voltage_range_V=(0.0, 10.0))
+        >>> InputStageModel(h, "rate_thresholds", 0.25e-3, 1e-3).simulate([0.0, 4.0, 8.0]).tolist()
+        [0.0, 2.0, 6.0]
+        """
+        scale = self.threshold_scale(voltage_V)
+        if scale is not None:
+            options = dict(options, threshold_scale=scale)
         return self.plant.simulate(self.stage_input(voltage_V), state, **options)

@@ -106,6 +106,8 @@ def library() -> ctypes.CDLL:
         model_p = ctypes.POINTER(HystModel)
         lib.hyst_simulate.argtypes = [model_p, size_t, p, p, p, p]
         lib.hyst_simulate.restype = None
+        lib.hyst_simulate_scaled.argtypes = [model_p, size_t, p, p, p, p, p]
+        lib.hyst_simulate_scaled.restype = None
         lib.hyst_invert_run.argtypes = [model_p, size_t, p, p, double, double, p]
         lib.hyst_invert_run.restype = size_t
         lib.hyst_invert_previous_sample_run.argtypes = [

@@ -145,7 +145,8 @@ class HysteresisModel:
         return state
 
     # ----------------------------------------------------------------- forward
-    def simulate(self, voltage_V, state=None, *, return_state=False, return_operators=False):
+    def simulate(self, voltage_V, state=None, *, return_state=False, return_operators=False,
+                 threshold_scale=None):
         """Displacement (µm) for a voltage record (V).
 
         Parameters
@@ -160,19 +161,38 @@ class HysteresisModel:
             the next call continues the record exactly.
         return_operators : bool
             Also return the operator outputs, shape (len(voltage), n_operators).
+        threshold_scale : array_like, optional
+            One factor (>= 0) per sample that multiplies every threshold at that sample
+            (thresholds that change with time: :mod:`pysim.core.input_stage`'s
+            ``rate_thresholds``).  Default: the thresholds as they are.
 
         Returns
         -------
         displacement_um : ndarray, and the extras asked for, in that order.
+
+        Examples
+        --------
+        >>> h = HysteresisModel(0.0, 0.0, (0.0, 1.0), (0.0, 1.0), voltage_range_V=(0.0, 10.0))
+        >>> h.simulate([0.0, 4.0, 8.0]).tolist(), h.simulate([0.0, 4.0, 8.0], threshold_scale=[1, 2, 3]).tolist()
+        ([0.0, 3.0, 7.0], [0.0, 2.0, 5.0])
         """
         v = _kernel.contiguous(voltage_V).ravel()
         w = self._state(state)
         y = np.empty_like(v)
         ops = np.empty((v.size, self.n_operators)) if return_operators else None
         model = self._c_model()
-        _kernel.library().hyst_simulate(ctypes.byref(model), v.size, _kernel.as_pointer(v),
-                                        _kernel.as_pointer(w), _kernel.as_pointer(y),
-                                        _kernel.as_pointer(ops))
+        if threshold_scale is None:
+            _kernel.library().hyst_simulate(ctypes.byref(model), v.size, _kernel.as_pointer(v),
+                                            _kernel.as_pointer(w), _kernel.as_pointer(y),
+                                            _kernel.as_pointer(ops))
+        else:
+            scale = _kernel.contiguous(threshold_scale).ravel()
+            if scale.shape != v.shape or not np.all(scale >= 0.0):
+                raise ModelError(f"threshold_scale needs one factor >= 0 per sample ({v.size}), "
+                                 f"got {scale.size} (smallest {float(scale.min()) if scale.size else 'none'})")
+            _kernel.library().hyst_simulate_scaled(ctypes.byref(model), v.size, _kernel.as_pointer(v),
+                                                   _kernel.as_pointer(scale), _kernel.as_pointer(w),
+                                                   _kernel.as_pointer(y), _kernel.as_pointer(ops))
         out = [y]
         if return_state:
             out.append(w)

@@ -50,8 +50,11 @@ Every family is physically admissible by construction:
 ``drift``
     ``y = h + p_1 t (+ p_2 t²)``: a smooth trend in time (degree 1 or 2).
 ``rate_dependent_hysteresis``
-    ``y = H[L[v]]``: a first-order low-pass *before* the hysteresis (loops that
-    widen with frequency).
+    Loops that widen with frequency, two structures, the better one out of
+    sample is kept: ``y = H[L[v]]``, a first-order low-pass *before* the
+    hysteresis, or thresholds that grow with the input's rate,
+    ``r_i (1 + γ |v̇|)`` with ``γ >= 0`` (the rate-dependent
+    Prandtl-Ishlinskii model; a slow input sees the rate-independent loop).
 ``slew_limit``
     ``y = H[S[v]]``: the amplifier follows the command at most at a rate R.
 
@@ -83,7 +86,7 @@ from pysim.core.extended import (
     tustin_creep_mode,
     tustin_displacement_creep,
 )
-from pysim.core.input_stage import InputStageModel, apply_input_stage
+from pysim.core.input_stage import InputStageModel, apply_input_stage, stage_threshold_scale
 from pysim.diagnosis.errors import DiagnosisError
 from pysim.diagnosis.input_stages import moved_by_stage, slew_rate_grid
 from pysim.identification.determinacy import DETERMINED_SPREAD, cycle_prediction_spread, decided_weights
@@ -383,7 +386,8 @@ class CandidateFitter:
         family = fit.family
         extras = np.column_stack(list(family.extras.values())) if family.extras else None
         transform = None if family.transform is None else family.transform.apply_to_columns
-        return cycle_prediction_spread(fit.result, self.operator_input(family), transform, extras)
+        return cycle_prediction_spread(fit.result, self.operator_input(family), transform, extras,
+                                       self.threshold_scale(family))
 
     @functools.cached_property
     def rate_independent_spreads(self):
@@ -652,7 +656,7 @@ class CandidateFitter:
         columns = {f"t{j}": (time / scale) ** j for j in range(1, degree + 1)}
         return self._with(base, "drift", parameters={"degree": degree, "time_scale_s": scale}, extras=columns)
 
-    def stage_states(self, base: Family, stage_output_V) -> list:
+    def stage_states(self, base: Family, stage_output_V, threshold_scale=None) -> list:
         """Operator states to try for operators that see an input stage's output
         instead of the voltage: the base's and the demagnetised one, clipped to
         what the stage output's first sample admits.  The base's state was
@@ -664,7 +668,8 @@ class CandidateFitter:
         record that travels further, as in the plain fit.
         """
         x = np.asarray(stage_output_V, dtype=float)
-        low, high = operator_bounds(x[:1], base.thresholds_V, self.operator, base.input_offset_V, self.floor_for(x))
+        low, high = operator_bounds(x[:1], base.thresholds_V, self.operator, base.input_offset_V, self.floor_for(x),
+                                    None if threshold_scale is None else threshold_scale[:1])
         return [np.clip(base.initial_state, low[0], high[0]),
                 np.clip(np.zeros(len(base.thresholds_V)), low[0], high[0])]
 
@@ -672,10 +677,11 @@ class CandidateFitter:
         if self._fixed is not None:
             return _lsq_sse(self._fixed_columns((kind, parameter))[self.search_rows], self.y[self.search_rows])
         x = apply_input_stage(kind, parameter, self.v, self.T)
+        scale = stage_threshold_scale(kind, parameter, self.v, self.T)
         scores = []
-        for state in self.stage_states(base, x):
+        for state in self.stage_states(base, x, scale):
             A, _ = regressors(x, base.thresholds_V, self.operator, base.input_offset_V, self.cubic,
-                              initial_state=state, rows=self.search_rows)
+                              initial_state=state, rows=self.search_rows, threshold_scale=scale)
             scores.append(_lsq_sse(A, self.y[self.search_rows]))
         return min(scores)
 
@@ -688,12 +694,31 @@ class CandidateFitter:
                                                  options={"xatol": 5e-3, "maxiter": 12})
         return math.exp(refined.x if refined.fun < scores[i] else grid[i])
 
-    def rate_dependent_hysteresis(self, base: Family) -> Family:
+    def rate_dependent_hysteresis(self, base: Family, structure: str = "lowpass") -> Family:
+        """Loops that widen with frequency on top of ``base``: an input low-pass (``structure``
+        ``"lowpass"``) or thresholds that grow with the input's rate (``"rate_thresholds"``)."""
+        if structure == "rate_thresholds":
+            return self._rate_thresholds(base)
         rows = self.search_rows.stop - self.search_rows.start
         grid = np.linspace(math.log(0.05 * self.T), math.log(max(3.0, rows / 20.0) * self.T), 14)
         tau = self._input_search(base, "lowpass", grid)
         return self._with(base, "rate_dependent_hysteresis",
-                          parameters={"input_time_constant_s": tau}, input_stage=("lowpass", tau))
+                          parameters={"structure": "input low-pass", "input_time_constant_s": tau},
+                          input_stage=("lowpass", tau))
+
+    def _rate_thresholds(self, base: Family) -> Family:
+        """Thresholds ``r_i (1 + γ |v̇|)``: γ searched on a log grid from a growth of 1 % to ten
+        times the thresholds at the record's typical fast rate (its 95th percentile of |v̇|)."""
+        rate = np.abs(np.diff(self.v[self.search_rows])) / self.T
+        typical = float(np.percentile(rate, 95)) if rate.size else 0.0
+        if not typical > 0.0:
+            raise DiagnosisError("the input never changes: no rate-dependent thresholds can be fitted")
+        grid = np.linspace(math.log(0.01 / typical), math.log(10.0 / typical), 14)
+        growth = self._input_search(base, "rate_thresholds", grid)
+        return self._with(base, "rate_dependent_hysteresis",
+                          parameters={"structure": "rate-dependent thresholds", "threshold_growth_s_per_V": growth,
+                                      "threshold_growth_pct_per_V_per_ms": growth * 1e5},
+                          input_stage=("rate_thresholds", growth))
 
     def slew_limit(self, base: Family) -> Family:
         rates = slew_rate_grid([(self.v, self.T)], 12)
@@ -704,8 +729,9 @@ class CandidateFitter:
         return self._with(base, "slew_limit", parameters={"rate_V_per_s": rate, "rate_V_per_ms": rate / 1e3},
                           input_stage=("slew_limit", rate))
 
-    def family(self, cause: str, base: Family) -> Family:
-        """Search the shape parameters of ``cause`` on top of ``base``."""
+    def family(self, cause: str, base: Family, like: Family = None) -> Family:
+        """Search the shape parameters of ``cause`` on top of ``base`` (in the structure of ``like``,
+        a family of the same cause, where the cause has two: rate-dependent hysteresis)."""
         if cause == "rate_dependence":
             return self.rate_dependence(base)
         if cause == "delay":
@@ -713,7 +739,8 @@ class CandidateFitter:
         if cause == "creep":
             return self.creep(base)
         if cause == "rate_dependent_hysteresis":
-            return self.rate_dependent_hysteresis(base)
+            rate_thresholds = like is not None and like.input_stage and like.input_stage[0] == "rate_thresholds"
+            return self.rate_dependent_hysteresis(base, "rate_thresholds" if rate_thresholds else "lowpass")
         if cause == "slew_limit":
             return self.slew_limit(base)
         if cause == "drift":
@@ -727,6 +754,14 @@ class CandidateFitter:
         if family.input_stage is None:
             return v
         return apply_input_stage(family.input_stage[0], family.input_stage[1], v, self.T)
+
+    def threshold_scale(self, family: Family, voltage_V=None):
+        """The factor on the thresholds of ``family`` at each sample of ``voltage_V`` (default: this
+        record's voltage), or None where they stay as they are."""
+        if family.input_stage is None:
+            return None
+        v = self.v if voltage_V is None else np.asarray(voltage_V, dtype=float)
+        return stage_threshold_scale(family.input_stage[0], family.input_stage[1], v, self.T)
 
     def with_estimated_state(self, family: Family, kept: IdentificationResult = None) -> tuple:
         """``family`` with the operator state at the start estimated with its
@@ -757,13 +792,14 @@ class CandidateFitter:
                     thresholds_V=family.thresholds_V, input_offset_V=family.input_offset_V,
                     column_transform=None if family.transform is None else family.transform.apply_to_columns,
                     extra_regressors=family.extras or None, extra_nonnegative=family.nonnegative,
-                    lagging_extras=family.lagging, require_excitation=False, tied_operators=self._record_ties(family))
+                    lagging_extras=family.lagging, require_excitation=False, tied_operators=self._record_ties(family),
+                    threshold_scale=self.threshold_scale(family))
 
     def moves_few_samples(self, family: Family) -> bool:
         """Whether ``family`` has an input stage that moves fewer than ``FEW_MOVED_SHARE`` of the
         record's samples: its operators see nearly the voltage the rate-independent fit saw."""
-        if family.input_stage is None:
-            return False
+        if family.input_stage is None or family.input_stage[0] == "rate_thresholds":
+            return False        # (thresholds that grow with the rate change every moving sample's operators)
         moved = moved_by_stage(self.v, self.operator_input(family))
         return np.count_nonzero(moved) < FEW_MOVED_SHARE * self.v.size
 
@@ -828,7 +864,9 @@ class CandidateFitter:
             column_transform=None if family.transform is None else family.transform.apply_to_columns,
             shared_extras=shared, own_extras=own, extra_nonnegative=family.nonnegative, lagging_extras=family.lagging,
             fit_rows=[np.arange(x1.size) if rows is None else rows, np.arange(x2.size) if rows2 is None else rows2],
-            history_floor_V=self.floor_for(np.concatenate((x1, x2))), name=self.name, description=self.description)
+            history_floor_V=self.floor_for(np.concatenate((x1, x2))),
+            threshold_scales=[self.threshold_scale(family), self.threshold_scale(family, v2)],
+            name=self.name, description=self.description)
 
     def finish(self, family: Family, result: IdentificationResult) -> CandidateFit:
         """The model of a fitted family, its state and prediction."""

@@ -14,7 +14,8 @@ Procedure (``diagnose``):
    rate_dependence, creep, delay, drift, rate_dependent_hysteresis,
    slew_limit) is built on the better of the two rate-independent models (a
    stage whose parameters all shape the response -- a delay, a lag or
-   resonance, an input low-pass, a slew limit -- also on the other one, and
+   resonance, an input low-pass or thresholds that grow with the input's
+   rate, a slew limit -- also on the other one, and
    keeps the better out of sample: :func:`candidates_on_either_base`); its
    shape parameters are searched on the whole record, its linear parameters
    refitted on every training part.  Every extension is physically admissible
@@ -238,7 +239,8 @@ def _name_stands(said: dict, named: str, named_set: tuple) -> bool:
 
 def _general_model_can_judge(evaluation, on_halves: bool = False) -> bool:
     """Whether the general model on both records (:mod:`pysim.diagnosis.preisach`) holds the
-    structure of a named cause: a lag (not a second-order stage), a delay, creep, an input low-pass.
+    structure of a named cause: a lag (not a second-order stage), a delay, creep, an input low-pass
+    (not thresholds that grow with the input's rate).
     A slew limit, a resonance or a drift it holds poorly or not at all, and it would replace them by
     their look-alikes (independent pair 503: a slew limit that the general model takes for a lag).
 
@@ -250,6 +252,8 @@ def _general_model_can_judge(evaluation, on_halves: bool = False) -> bool:
     model leaves 134 σ²; creep takes each half to its noise)."""
     if evaluation.cause == "rate_dependence":
         return evaluation.fit.parameters.get("order") == 1
+    if evaluation.cause == "rate_dependent_hysteresis" and evaluation.fit.family.input_stage[0] != "lowpass":
+        return False        # (thresholds that grow with the rate: the general model holds only the low-pass)
     return evaluation.cause in GENERAL_MODEL_JUDGES + (("slew_limit",) if on_halves else ())
 
 
@@ -286,6 +290,10 @@ def _reasons(candidates: dict, stats: dict, steps: dict | None = None) -> dict:
             shape = f"polynomial of degree {p['degree']} in time, held after the record's {p['span_s']:.4g} s"
             hint = (f"{100 * stats['low_frequency_fraction']:.0f} % of the residual power below a fifth of the "
                     f"input frequency")
+        elif cause == "rate_dependent_hysteresis" and "threshold_growth_s_per_V" in p:
+            shape = (f"thresholds that grow with the input rate, r_i (1 + γ |dv/dt|), "
+                     f"γ = {p['threshold_growth_pct_per_V_per_ms']:.4g} % per V/ms")
+            hint = f"residual-rate correlation {stats['rate_correlation']:+.2f}"
         elif cause == "rate_dependent_hysteresis":
             shape = f"input low-pass before the hysteresis, τ = {p['input_time_constant_s'] * 1e3:.4g} ms"
             hint = f"residual-rate correlation {stats['rate_correlation']:+.2f}"

@@ -233,13 +233,15 @@ def cv_runner(fitter: CandidateFitter, folds, character, y, mask):
     return run
 
 
-def fit_candidates(fitter: CandidateFitter, run, base_family: Family, causes, creep_score=None) -> dict:
+def fit_candidates(fitter: CandidateFitter, run, base_family: Family, causes, structure_score=None) -> dict:
     """Cause → :class:`Evaluation` of its extension of ``base_family`` on the fitter's record.
 
     A cause with two structures keeps the better out of sample: a lag or a
     resonance, a trend of degree 1 or 2 (the quadratic only if it cuts the
-    error by a fifth), creep driven by the input or by the displacement
-    (``creep_score(evaluation)``, default the cross-validated MSE).  A cause
+    error by a fifth), and, by ``structure_score(evaluation)`` (default the
+    cross-validated MSE; with a second record, the product of both records'
+    errors), creep driven by the input or by the displacement, an input
+    low-pass or thresholds that grow with the input's rate.  A cause
     the record cannot support is left out.
     """
     candidates = {}
@@ -270,7 +272,17 @@ def fit_candidates(fitter: CandidateFitter, run, base_family: Family, causes, cr
                     options.append(run(fitter.displacement_creep(base_family)))
                 except (IdentificationError, DiagnosisError):
                     pass
-                ev = min(options, key=creep_score or (lambda option: option.mse_um2))
+                ev = min(options, key=structure_score or (lambda option: option.mse_um2))
+            elif cause == "rate_dependent_hysteresis":
+                # an input low-pass or thresholds that grow with the input's rate: the better out of
+                # sample (a tie keeps the low-pass)
+                options = [run(fitter.rate_dependent_hysteresis(base_family, "lowpass"))]
+                try:
+                    options.append(run(fitter.rate_dependent_hysteresis(base_family, "rate_thresholds")))
+                except (IdentificationError, DiagnosisError):
+                    pass
+                ev = min(options, key=structure_score or (lambda option: option.mse_um2))
+                ev.structures = options
             else:
                 ev = run(fitter.family(cause, base_family))
         except (IdentificationError, DiagnosisError):
@@ -288,7 +300,7 @@ def _no_worse_on_other_character(evaluation, reference) -> bool:
     return evaluation.character["mse_um2"] <= reference.character["mse_um2"]
 
 
-def candidates_on_either_base(fitter: CandidateFitter, run, baseline, richer, causes, creep_score=None) -> dict:
+def candidates_on_either_base(fitter: CandidateFitter, run, baseline, richer, causes, structure_score=None) -> dict:
     """Cause → :class:`Evaluation` of its extension of the better of the rate-independent models
     ``baseline`` (n operators) and ``richer`` (2n); a stage in ``DYNAMICS`` also of the other one,
     keeping the better of the two out of sample.
@@ -320,11 +332,11 @@ def candidates_on_either_base(fitter: CandidateFitter, run, baseline, richer, ca
         # the record does not decide how the richer model's hysteresis part predicts a new input:
         # every extension is fitted on the baseline's, and no stage on the richer's
         chosen, other = baseline, richer
-    candidates = fit_candidates(fitter, run, chosen.fit.family, causes, creep_score)
+    candidates = fit_candidates(fitter, run, chosen.fit.family, causes, structure_score)
     if other.fit is chosen.fit or undetermined:     # no richer model identified, or none the record decides
         return candidates
     contest = [c for c, ev in candidates.items() if c in DYNAMICS and ev.mse_um2 < chosen.mse_um2]
-    for cause, ev in fit_candidates(fitter, run, other.fit.family, contest, creep_score).items():
+    for cause, ev in fit_candidates(fitter, run, other.fit.family, contest, structure_score).items():
         # better in the median block and on average over every held-out sample: the median forgives
         # the block where a hysteresis part extrapolates wildly, which is what tells how it transfers
         # to another input (independent seed 19: a delay on 20 operators leaves 3.98 σ² in the median

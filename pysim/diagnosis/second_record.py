@@ -989,7 +989,7 @@ def dynamics_where_they_show(fitter, run, reference, candidates, v1, v2, y2, noi
             continue
         first = candidates[cause]
         try:
-            found = search.family(cause, reference.fit.family)
+            found = search.family(cause, reference.fit.family, like=first.fit.family)
             ev = run(fitter.adopt(reference.fit.family, found))
         except (IdentificationError, DiagnosisError):
             continue

@@ -163,8 +163,9 @@ def score_on_record(fit: CandidateFit, voltage_V, displacement_um, sample_period
     model = fit.model
     plant = getattr(model, "plant", model) if isinstance(model, InputStageModel) else model
     x = model.stage_input(v) if isinstance(model, InputStageModel) else v
+    scale = model.threshold_scale(v) if isinstance(model, InputStageModel) else None
     modes = history_modes(plant, v.size, sample_period_s)
-    state, p = _StateSearch(plant, x, y, modes, history_floor_V).best()
+    state, p = _StateSearch(plant, x, y, modes, history_floor_V, scale).best()
     lo, hi = train_range_V
     level = v
     if isinstance(model, InputStageModel) and train_voltage_V is not None:
@@ -202,23 +203,26 @@ def _best_timing(prediction_um, y, modes, scored) -> tuple:
 
 class _StateSearch:
     """The initial operator state of ``plant`` on another record (input ``x`` to its hysteresis,
-    output ``y`` µm), with the sensor offset, gain and history ``modes`` fitted alongside.
+    output ``y`` µm), with the sensor offset, gain and history ``modes`` fitted alongside;
+    ``threshold_scale``: the factor on its thresholds at each sample, if they change with time.
 
     Each candidate is ``(state, error sum, prediction)``; :meth:`best` returns the best state and
     its prediction.
     """
 
-    def __init__(self, plant, x, y, modes, history_floor_V=None):
+    def __init__(self, plant, x, y, modes, history_floor_V=None, threshold_scale=None):
         self.plant, self.x, self.y, self.modes = plant, x, y, modes
+        self.threshold_scale = threshold_scale
         h = plant.hysteresis
         self.low, self.high = operator_bounds(x, h.thresholds_V, h.operator, h.input_offset_V,
-                                              history_floor_for_input(history_floor_V, x))
+                                              history_floor_for_input(history_floor_V, x), threshold_scale)
         self.weights = np.asarray(h.weights_um_per_V, dtype=float)
         # the samples where each operator's admissible state still depends on where it started
         self.moving = [np.flatnonzero(self.high[:, i] - self.low[:, i] > 0) for i in range(h.n_operators)]
 
     def predict(self, state):
-        return self.plant.simulate(self.x, initial_extended_state(self.plant, self.x[0], state))
+        return self.plant.simulate(self.x, initial_extended_state(self.plant, self.x[0], state),
+                                   threshold_scale=self.threshold_scale)
 
     def as_is(self, state):
         """The state, its error sum (the offset, gain and modes fitted) and its prediction."""

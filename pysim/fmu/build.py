@@ -100,10 +100,10 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
     and steps at the spec's sample period only; the inverse compensates the
     hysteresis part alone (the stages are not inverted).  A model with a
     stage before the hysteresis (:class:`~pysim.core.input_stage.InputStageModel`,
-    which ``pysim diagnose --out`` writes for an input low-pass or a slew
-    limit) is refused: the FMUs hold no input stage, and a plant FMU without it
-    would not be the model named.  ``without_input_stage=True`` builds the part
-    after the stage, and says so.
+    which ``pysim diagnose --out`` writes for an input low-pass, a slew limit
+    or thresholds that grow with the input's rate) is refused: the FMUs hold
+    no input stage, and a plant FMU without it would not be the model named.
+    ``without_input_stage=True`` builds the part after the stage, and says so.
 
     Parameters
     ----------
@@ -146,8 +146,9 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
     source = spec_or_model if not isinstance(spec_or_model, MODEL_TYPES) else f"model {model.name}"
     if isinstance(model, InputStageModel):
         stage = model.stage_summary()
+        what = stage if model.kind == "rate_thresholds" else f"an input stage before the hysteresis, {stage}"
         if not without_input_stage:
-            raise BuildError(f"{source}: MODEL has an input stage before the hysteresis, {stage}, which an FMU "
+            raise BuildError(f"{source}: MODEL has {what}, which an FMU "
                              "cannot hold; build the FMUs of the part after it with --without-input-stage "
                              "(build_fmus(..., without_input_stage=True)), knowing they omit that stage")
         say(f"input stage {stage} left out, as asked: the FMUs are of the part after it")

@@ -81,13 +81,13 @@ def decided_weights(result: IdentificationResult) -> int:
     return len(_weight_owners(result))
 
 
-def _columns(result: IdentificationResult, voltage_V, state) -> np.ndarray:
+def _columns(result: IdentificationResult, voltage_V, state, threshold_scale=None) -> np.ndarray:
     """The fit's hysteresis columns over ``voltage_V`` from ``state``: ``[u³] u``, one column per
     operator with a weight of its own (tied operators added to their anchor's at their ratio of
     threshold spacing, as the fit ties them), the offset."""
     model = result.model
     v = np.asarray(voltage_V, dtype=float).ravel()
-    _, operators = model.simulate(v, state, return_operators=True)
+    _, operators = model.simulate(v, state, return_operators=True, threshold_scale=threshold_scale)
     u = v - model.input_offset_V
     r = np.asarray(model.thresholds_V, dtype=float)
     spacing = np.diff(np.concatenate(([0.0], r)))
@@ -104,7 +104,8 @@ def _columns(result: IdentificationResult, voltage_V, state) -> np.ndarray:
     return np.column_stack(columns)
 
 
-def cycle_prediction_spread(result: IdentificationResult, voltage_V, column_transform=None, extra_columns=None) -> float:
+def cycle_prediction_spread(result: IdentificationResult, voltage_V, column_transform=None, extra_columns=None,
+                            threshold_scale=None) -> float:
     """RMS over :func:`probe_cycle` (spanning the fitted samples' input range) of the standard
     deviation of ``result``'s prediction, in units of the record's noise σ, from the information
     of the samples it was fitted on (``voltage_V``: what the fit's operators saw over the record).
@@ -112,7 +113,9 @@ def cycle_prediction_spread(result: IdentificationResult, voltage_V, column_tran
     ``column_transform`` and ``extra_columns`` describe a fit with output stages or regressors of
     its own (an extension fitted by the diagnosis): ``column_transform(columns)`` runs the
     hysteresis columns through its stages (the probe's as well), and ``extra_columns`` ((N, m),
-    over the record) are fitted beside them; the probe gives those no part.  A regressor that can
+    over the record) are fitted beside them; the probe gives those no part.  ``threshold_scale``:
+    the factor on every threshold at each sample of the record, for a fit whose thresholds change
+    with time (the probe, a slow cycle, sees them as they are).  A regressor that can
     stand in for a combination of operators shows here as a spread the plain fit does not have.
 
     Returns ``inf`` when the fitted columns are linearly dependent.
@@ -138,7 +141,7 @@ def cycle_prediction_spread(result: IdentificationResult, voltage_V, column_tran
     """
     v = np.asarray(voltage_V, dtype=float).ravel()
     rows = result.fit_slice if result.fit_slice is not None else slice(0, v.size)
-    fitted = _columns(result, v, result.initial_state)
+    fitted = _columns(result, v, result.initial_state, threshold_scale)
     fitted_v = v[rows]
     # the probe starts from rest at the bottom of the range the fit saw
     probe = _columns(result, probe_cycle(float(fitted_v.min()), float(fitted_v.max())), None)

@@ -199,7 +199,8 @@ def auto_warmup(voltage_V, widest_band_V: float = None) -> int:
     return max(first_low, first_high)
 
 
-def operator_bounds(voltage_V, thresholds_V, operator: str, input_offset_V: float, history_floor_V=None):
+def operator_bounds(voltage_V, thresholds_V, operator: str, input_offset_V: float, history_floor_V=None,
+                    threshold_scale=None):
     """Operator outputs started from the lowest and the highest admissible state.
 
     Parameters
@@ -210,6 +211,11 @@ def operator_bounds(voltage_V, thresholds_V, operator: str, input_offset_V: floa
         that a history which starts demagnetised and stays above it can leave:
         ``min(0, floor - offset)`` for a one-sided operator, ``min(0, floor -
         offset + r)`` for a play operator.  Without it the band is unbounded below.
+    threshold_scale : array_like, optional
+        A factor on every threshold at each sample (thresholds that change with
+        time; :meth:`pysim.core.model.HysteresisModel.simulate`).  An operator's
+        update is a clip whatever its threshold, so the bounds hold as they do
+        for fixed thresholds.
 
     Returns
     -------
@@ -244,13 +250,13 @@ def operator_bounds(voltage_V, thresholds_V, operator: str, input_offset_V: floa
         # state never falls below min(0, u_floor), a play operator's never below min(0, u_floor + r)
         u_floor = float(history_floor_V) - float(input_offset_V)
         lowest = np.minimum(0.0, u_floor + (r if operator == "play" else np.zeros_like(r)))
-    _, low = probe.simulate(voltage_V, lowest, return_operators=True)
-    _, high = probe.simulate(voltage_V, np.full(r.size, _BIG), return_operators=True)
+    _, low = probe.simulate(voltage_V, lowest, return_operators=True, threshold_scale=threshold_scale)
+    _, high = probe.simulate(voltage_V, np.full(r.size, _BIG), return_operators=True, threshold_scale=threshold_scale)
     return low, high
 
 
 def regressors(voltage_V, thresholds_V, operator: str, input_offset_V: float, cubic: bool,
-               initial_state=None, rows=None):
+               initial_state=None, rows=None, threshold_scale=None):
     """Design matrix of the linear-in-parameters model.
 
     Parameters
@@ -260,6 +266,8 @@ def regressors(voltage_V, thresholds_V, operator: str, input_offset_V: float, cu
     rows : slice or array of int, optional
         Only these rows of the matrix (the operators still run over the whole record: a search that
         scores a part of it need not copy the rest).
+    threshold_scale : array_like, optional
+        A factor on every threshold at each sample (:func:`operator_bounds`).
 
     Returns
     -------
@@ -278,7 +286,7 @@ def regressors(voltage_V, thresholds_V, operator: str, input_offset_V: float, cu
     # only the operator outputs are used: zero weights; simulate ignores the voltage range
     probe = HysteresisModel(0.0, 0.0, tuple(r), tuple(np.zeros_like(r)), operator=operator,
                             input_offset_V=input_offset_V, name="probe")
-    _, operators = probe.simulate(voltage_V, initial_state, return_operators=True)
+    _, operators = probe.simulate(voltage_V, initial_state, return_operators=True, threshold_scale=threshold_scale)
     u = np.asarray(voltage_V, dtype=float) - input_offset_V
     if rows is not None:
         operators, u = operators[rows], u[rows]
@@ -762,7 +770,8 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
              column_transform=None, initial_state=None, start_state=None, merge_unexcited: bool = True,
              fit_rows=None, lagging_extras=(),
              input_offset_V: float = None, require_excitation: bool = True, history_floor_V: float = None,
-             tied_operators: dict = None, name: str = None, description: str = "") -> IdentificationResult:
+             tied_operators: dict = None, threshold_scale=None, name: str = None,
+             description: str = "") -> IdentificationResult:
     """Fit an MPI or CPI model to a measured record.
 
     Parameters
@@ -849,6 +858,10 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
         simulated from rest (``simulate``, the FMUs) then misses its own fit by a constant
         until the input's top.  With it, once the record has visited this voltage the model
         from rest is its fit.  Must not be above the record's lowest voltage.
+    threshold_scale : array_like, optional
+        A factor on every threshold at each sample (thresholds that grow with the input's rate,
+        :mod:`pysim.core.input_stage`); the returned model holds the thresholds as fitted and
+        reproduces ``prediction_um`` when simulated with the same factors.
     name, description : str
         Stored in the model.
 
@@ -894,7 +907,7 @@ def identify(voltage_V, displacement_um, *, n_operators: int = 10, model: str = 
             f"parameters: need at least {n_params_hint + 1}")
     u = v - input_offset
     history_floor = checked_history_floor(history_floor_V, v)
-    low, high = operator_bounds(v, r, operator, input_offset, history_floor)
+    low, high = operator_bounds(v, r, operator, input_offset, history_floor, threshold_scale)
     demagnetised = np.clip(np.zeros(r.size), low[0], high[0])
     estimate = warmup == "auto" and initial_state is None
     if initial_state is not None:
@@ -1505,7 +1518,7 @@ def _fit_through_transform(columns: _Columns, column_transform, record: _RecordA
 def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_states, voltage_range_V,
                      model: str = "mpi", operator: str = "osp", column_transform=None, shared_extras=None,
                      own_extras=None, extra_nonnegative=(), fit_rows=None, min_slope_fraction: float = 0.01,
-                     lagging_extras=(), history_floor_V: float = None,
+                     lagging_extras=(), history_floor_V: float = None, threshold_scales=None,
                      name: str = None, description: str = "") -> IdentificationResult:
     """Fit one model's linear parameters on several records of the same actuator.
 
@@ -1550,6 +1563,8 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
     history_floor_V : float, optional
         The lowest voltage the actuator was driven to before any record (V): each given
         state is clipped to what a history above it leaves, as in :func:`identify`.
+    threshold_scales : sequence of array_like or None, optional
+        Per record, a factor on every threshold at each sample (as in :func:`identify`).
 
     Returns
     -------
@@ -1591,12 +1606,14 @@ def identify_jointly(records, *, thresholds_V, input_offset_V: float, initial_st
 
     travel = np.zeros(r.size)
     raw = []
-    for index, ((v, _), state, k) in enumerate(zip(records, initial_states, rows)):
+    scales = [None] * len(records) if threshold_scales is None else list(threshold_scales)
+    for index, ((v, _), state, k, scale) in enumerate(zip(records, initial_states, rows, scales)):
         history_floor = checked_history_floor(history_floor_V, v, f" of record {index}")
-        low, high = operator_bounds(v, r, operator, input_offset_V, history_floor)
+        low, high = operator_bounds(v, r, operator, input_offset_V, history_floor, scale)
         travel += operator_travel(low, high, k, v) if k.size > 1 else 0.0
         A, columns = regressors(v, r, operator, input_offset_V, cubic,
-                                initial_state=np.clip(np.asarray(state, dtype=float), low[0], high[0]))
+                                initial_state=np.clip(np.asarray(state, dtype=float), low[0], high[0]),
+                                threshold_scale=scale)
         raw.append((A, columns))
     anchor, factor = _merge_plan(r, travel, hi - lo)
     groups = [i for i in range(r.size) if anchor[i] == i]

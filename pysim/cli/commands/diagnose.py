@@ -105,7 +105,8 @@ def run(args) -> int:
 def _spec_header(result) -> str:
     stage = result.extended.model
     m = getattr(stage, "plant", stage)
-    note = (f"\nThe named cause is a stage before the hysteresis ({stage.stage_summary()}): MODEL runs it "
+    where = "the hysteresis' thresholds" if stage.kind == "rate_thresholds" else "a stage before the hysteresis"
+    note = (f"\nThe named cause is {where} ({stage.stage_summary()}): MODEL runs it "
             "(pysim.core.load_spec(this file).simulate(voltage_V)), but an FMU cannot hold it; build-fmu "
             "builds the part after it only when given --without-input-stage."
             if stage is not m else "")
