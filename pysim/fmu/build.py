@@ -146,12 +146,14 @@ def build_fmus(spec_or_model, out_dir, platforms=DEFAULT_PLATFORMS, *, use_cache
     source = spec_or_model if not isinstance(spec_or_model, MODEL_TYPES) else f"model {model.name}"
     if isinstance(model, InputStageModel):
         stage = model.stage_summary()
-        what = stage if model.kind == "rate_thresholds" else f"an input stage before the hysteresis, {stage}"
+        grown = model.kind == "rate_thresholds"
+        what = stage if grown else f"an input stage before the hysteresis, {stage}"
+        part = "its rate-independent part" if grown else "the part after it"
         if not without_input_stage:
             raise BuildError(f"{source}: MODEL has {what}, which an FMU "
-                             "cannot hold; build the FMUs of the part after it with --without-input-stage "
+                             f"cannot hold; build the FMUs of {part} with --without-input-stage "
                              "(build_fmus(..., without_input_stage=True)), knowing they omit that stage")
-        say(f"input stage {stage} left out, as asked: the FMUs are of the part after it")
+        say(f"input stage {stage} left out, as asked: the FMUs are of {part}")
         model = model.plant
     names = platform_names(platforms)
     kinds = tuple(k for k in KINDS if k in tuple(kinds))

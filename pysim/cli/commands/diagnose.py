@@ -105,14 +105,17 @@ def run(args) -> int:
 def _spec_header(result) -> str:
     stage = result.extended.model
     m = getattr(stage, "plant", stage)
-    where = "the hysteresis' thresholds" if stage.kind == "rate_thresholds" else "a stage before the hysteresis"
+    grown = getattr(stage, "kind", None) == "rate_thresholds"
+    where, part, held = (("the hysteresis' thresholds", "its rate-independent part",
+                          "thresholds that grow with the input rate")
+                         if grown else ("a stage before the hysteresis", "the part after it", "an input stage"))
     note = (f"\nThe named cause is {where} ({stage.stage_summary()}): MODEL runs it "
             "(pysim.core.load_spec(this file).simulate(voltage_V)), but an FMU cannot hold it; build-fmu "
-            "builds the part after it only when given --without-input-stage."
+            f"builds {part} only when given --without-input-stage."
             if stage is not m else "")
     what = (f"Plain MPI model ({result.withheld} named; its model predicts the second record worse)"
             if result.withheld else
-            f"MPI model with {'an input stage' if stage is not m else 'output stages'} ({result.cause})")
+            f"MPI model with {held if stage is not m else 'output stages'} ({result.cause})")
     both = (f" and {Path(result.validation['source'] or 'the second record').name} (shape parameters from the first)"
             if result.fitted_on_both_records else "")
     return (f"{what} identified from {Path(result.source).name}{both} by "
