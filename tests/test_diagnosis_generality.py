@@ -878,7 +878,10 @@ def test_a_cause_the_first_records_models_cannot_carry_to_the_second_is_confirme
     second record alone would say `unexplained`; its own rate-independent fit leaves an effect's
     worth too, and diagnosed on its own it names creep: creep is named, and it predicts the third
     record (steps and sines) better than the plain fit.  With the state found through the creep,
-    creep's model is significant on the second record itself, and it is named by that record."""
+    creep's model is significant on the second record itself, and it was named by that record until
+    rate-dependent hysteresis gained thresholds that grow with the rate: that structure, kept for
+    predicting both records best (the noise record at 0.72 % RMS against creep's 0.75 %), leaves the
+    first record's models' verdict there open, and the second record diagnosed on its own decides."""
     import independent_records
     from pysim.diagnosis import validation
 
@@ -896,7 +899,7 @@ def test_a_cause_the_first_records_models_cannot_carry_to_the_second_is_confirme
         assert rms["creep"] < 0.7 * rms["plain"], rms
 
     d = _validated(pair)
-    assert d.cause == "creep" and d.validation["verdict_by"] == "second record", d.why
+    assert d.cause == "creep" and d.validation["verdict_by"] in ("second record", "second record alone"), d.why
     third_record_better(d)
     monkeypatch.setattr(validation, "HISTORY_STARTS", 0)
     monkeypatch.setattr(validation, "STAGE_STATE_ROUNDS", 0)
