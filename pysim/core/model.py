@@ -181,18 +181,14 @@ class HysteresisModel:
         y = np.empty_like(v)
         ops = np.empty((v.size, self.n_operators)) if return_operators else None
         model = self._c_model()
-        if threshold_scale is None:
-            _kernel.library().hyst_simulate(ctypes.byref(model), v.size, _kernel.as_pointer(v),
-                                            _kernel.as_pointer(w), _kernel.as_pointer(y),
-                                            _kernel.as_pointer(ops))
-        else:
-            scale = _kernel.contiguous(threshold_scale).ravel()
-            if scale.shape != v.shape or not np.all(scale >= 0.0):
-                raise ModelError(f"threshold_scale needs one factor >= 0 per sample ({v.size}), "
-                                 f"got {scale.size} (smallest {float(scale.min()) if scale.size else 'none'})")
-            _kernel.library().hyst_simulate_scaled(ctypes.byref(model), v.size, _kernel.as_pointer(v),
-                                                   _kernel.as_pointer(scale), _kernel.as_pointer(w),
-                                                   _kernel.as_pointer(y), _kernel.as_pointer(ops))
+        scale = None if threshold_scale is None else _kernel.contiguous(threshold_scale).ravel()
+        if scale is not None and (scale.shape != v.shape or not np.all(scale >= 0.0)):
+            raise ModelError(f"threshold_scale needs one factor >= 0 per sample ({v.size}), "
+                             f"got {scale.size} (smallest {float(scale.min()) if scale.size else 'none'})")
+        # (no scale: NULL, the thresholds as they are -- the same loop and bits as hyst_simulate)
+        _kernel.library().hyst_simulate_scaled(ctypes.byref(model), v.size, _kernel.as_pointer(v),
+                                               _kernel.as_pointer(scale), _kernel.as_pointer(w),
+                                               _kernel.as_pointer(y), _kernel.as_pointer(ops))
         out = [y]
         if return_state:
             out.append(w)

@@ -656,7 +656,7 @@ class CandidateFitter:
         columns = {f"t{j}": (time / scale) ** j for j in range(1, degree + 1)}
         return self._with(base, "drift", parameters={"degree": degree, "time_scale_s": scale}, extras=columns)
 
-    def stage_states(self, base: Family, stage_output_V, threshold_scale=None) -> list:
+    def stage_states(self, base: Family, stage_output_V) -> list:
         """Operator states to try for operators that see an input stage's output
         instead of the voltage: the base's and the demagnetised one, clipped to
         what the stage output's first sample admits.  The base's state was
@@ -665,11 +665,11 @@ class CandidateFitter:
         The thresholds stay the base's, over the voltage's range: a low-pass
         narrows the range the operators travel in a fast record, and the top
         operators, tied to their neighbours' density, then extrapolate to a
-        record that travels further, as in the plain fit.
+        record that travels further, as in the plain fit.  (Thresholds that grow with the rate are
+        the fixed ones at the first sample, where the rate is 0.)
         """
         x = np.asarray(stage_output_V, dtype=float)
-        low, high = operator_bounds(x[:1], base.thresholds_V, self.operator, base.input_offset_V, self.floor_for(x),
-                                    None if threshold_scale is None else threshold_scale[:1])
+        low, high = operator_bounds(x[:1], base.thresholds_V, self.operator, base.input_offset_V, self.floor_for(x))
         return [np.clip(base.initial_state, low[0], high[0]),
                 np.clip(np.zeros(len(base.thresholds_V)), low[0], high[0])]
 
@@ -679,7 +679,7 @@ class CandidateFitter:
         x = apply_input_stage(kind, parameter, self.v, self.T)
         scale = stage_threshold_scale(kind, parameter, self.v, self.T)
         scores = []
-        for state in self.stage_states(base, x, scale):
+        for state in self.stage_states(base, x):
             A, _ = regressors(x, base.thresholds_V, self.operator, base.input_offset_V, self.cubic,
                               initial_state=state, rows=self.search_rows, threshold_scale=scale)
             scores.append(_lsq_sse(A, self.y[self.search_rows]))
