@@ -800,6 +800,13 @@ def verdict_on_both_records(fits: dict, records: str = "both records") -> dict:
     >>> near = {**fits, "none": fit("none", 1.9, 1.2), "creep": fit("creep", 1.0, 1.02)}
     >>> verdict_on_both_records(near)["causes"]
     ('creep',)
+
+    A stage the records cannot fit is said so, not scored as an infinite error:
+
+    >>> slow = fit("rate_dependent_hysteresis", float("inf"), float("inf"))
+    >>> print(verdict_on_both_records({**fits, "none": fit("none", 2.0, 2.2),
+    ...                                "rate_dependent_hysteresis": slow})["sentence"].split(", with ")[-1])
+    rate_dependent_hysteresis no fit: so slow a stage leaves the operators' paths unknown): no effect of the catalogue removes 75 % of it
     """
     base = fits["none"]
     left = {c: f.excess_sigma2 for c, f in fits.items()}
@@ -818,9 +825,9 @@ def verdict_on_both_records(fits: dict, records: str = "both records") -> dict:
     # 11.5 σ² and an input low-pass 3.9 σ², 7.2 σ² on the second record)
     effects = {c: f for c, f in fits.items()
                if c != "none" and not (c in INPUT_EFFECTS and max(f.mse_sigma2) > 1.0 + UNEXPLAINED_LEVEL)}
-    evidence = ", ".join(f"with {c} {f.excess_sigma2:.3g} σ²" for c, f in sorted(fits.items(),
-                                                                                    key=lambda cf: cf[1].excess_sigma2)
-                         if c != "none")
+    evidence = ", ".join(f"with {c} " + (f"{f.excess_sigma2:.3g} σ²" if math.isfinite(f.excess_sigma2) else
+                                         "no fit: so slow a stage leaves the operators' paths unknown")
+                         for c, f in sorted(fits.items(), key=lambda cf: cf[1].excess_sigma2) if c != "none")
     if not effects:
         return {"cause": None, "causes": (), "left_sigma2": left,
                 "sentence": f"{described} ({base.excess_sigma2:.3g} σ² above it over both; {evidence}): no effect "
