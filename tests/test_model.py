@@ -231,7 +231,8 @@ def test_default_model_is_the_scaled_paper_example():
 
 @pytest.mark.parametrize("n", [1, 10, 33, 70])
 def test_record_loop_and_single_sample_call_give_the_same_bits(rng, n):
-    """The FMUs call hyst_output (blocked), Python records hyst_simulate (in place): same bits."""
+    """The FMUs call hyst_output (blocked), Python records hyst_simulate_scaled without a scale (the in-place
+    loop of hyst_simulate): same bits."""
     import ctypes
 
     from pysim.core import kernel as _kernel

@@ -100,9 +100,11 @@ class JointFit:
         The effect's shape parameter (τ in s for ``rate_dependence``, the delay in s for
         ``delay``, the trend's degree for ``drift``); NaN otherwise.
     mse_sigma2 : tuple of float
-        Each record's mean-square error over its usable samples, in its own noise variance.
+        Each record's mean-square error over its usable samples, in the noise variance of ``noise_um``.
     noise_um : tuple of float
-        Each record's noise σ, µm (from first differences of the residual).
+        Each record's noise σ, µm: from first differences of this fit's residual, or, for the fits
+        of :meth:`GeneralModelParts.effects`, the one all of them are weighed against
+        (:meth:`weighed_against`).
     samples : tuple of int
         Each record's usable samples (every operator fixed by the input).
     second_gain, second_offset_um : float
