@@ -3007,3 +3007,28 @@ def test_thresholds_that_grow_with_the_rate_are_named_and_predict_another_input(
                                              - truth2[part]) ** 2))) for which in ("baseline", "extended")}
     assert errors["extended"] < 0.5 * errors["baseline"], errors
     assert d.reasons["rate_dependent_hysteresis"].startswith("thresholds that grow with the input rate")
+
+
+# ------------------------------------------------------------ two effects at once
+
+def test_a_record_with_two_effects_says_more_is_in_it_than_the_cause_named(plant):
+    """One cause is named at a time.  A record of a delay of 8 samples and a sensor drift of 30 % of
+    the range over the record, both written here: whichever cause is named, its model cannot take
+    the other effect, and the diagnosis says that more is in the record than it explains (what its
+    model leaves on the held-out blocks is many noise variances).  The same record without the drift
+    has one effect, and nothing is said."""
+    v = multisine(plant, 12000, 5)
+    h = delayed(plant, v, 8)
+    t = np.arange(v.size) / FS
+    two = diagnose(v, noisy(h + 0.3 * np.ptp(h) * t / t[-1], 7), FS)
+    assert two.cause in ("delay", "drift", "rate_dependence", "rate_dependent_hysteresis"), two.why
+    left = two.left_over
+    assert left["more_than_one_cause"] and left["held_out_sigma2"] >= 3.0, left
+    assert left["plain_sigma2"] > left["held_out_sigma2"]
+    assert "more is in the record than" in two.why
+    assert two.as_json()["evidence"]["left_over_over_noise"] == left
+
+    one = diagnose(v, noisy(h, 7), FS)
+    assert one.cause in ("delay", "rate_dependence", "rate_dependent_hysteresis"), one.why
+    assert not one.left_over["more_than_one_cause"] and one.left_over["held_out_sigma2"] < 1.0, one.left_over
+    assert "more is in the record than" not in one.why

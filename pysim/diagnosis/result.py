@@ -89,6 +89,11 @@ class Diagnosis:
         Whether the record decides the richer model
         (:attr:`pysim.diagnosis.candidates.CandidateFitter.richer_determined`: its spread, and
         more weights of its own than the baseline's).
+    left_over : dict or None
+        What the named cause's model leaves above the noise, σ²
+        (:func:`pysim.diagnosis.diagnose.left_over`: ``held_out_sigma2``,
+        ``plain_sigma2``, ``second_record_sigma2``, ``more_than_one_cause``);
+        None when no cause is named.
     """
 
     cause: str
@@ -126,6 +131,7 @@ class Diagnosis:
     moving_holds: dict = None
     rate_independent_spreads: tuple = None
     richer_determined: bool = None
+    left_over: dict = None
 
     @property
     def gain_pct(self) -> float:
@@ -223,6 +229,7 @@ class Diagnosis:
                 "validation": self.validation,
                 "general_model": self.general_model,
                 "moving_holds": self.moving_holds,
+                "left_over_over_noise": self.left_over,
                 "residual_statistics": _plain(self.statistics),
             },
             "baseline": {"rms_pct": self.baseline.rms_pct, "max_pct": self.baseline.max_pct},
