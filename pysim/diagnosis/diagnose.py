@@ -1714,7 +1714,7 @@ class _DiagnosisRun:
         if validation is None or extended.validation is None:
             return False
         first = extended.mse_um2 / self.noise**2 - 1.0
-        second = extended.validation["mse_um2"] / validation["noise_um"]**2 - 1.0
+        second = _left_on_second_record(extended, validation)
         return first < PLAIN_MISS_LEVEL and second < UNEXPLAINED_LEVEL
 
     def _withheld_if_second_record_worse(self, extended: Evaluation, plain: Evaluation) -> Evaluation:
