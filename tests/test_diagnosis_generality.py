@@ -1665,6 +1665,12 @@ def test_decide_follows_its_rules():
     # the best removes less than half of the excess over the noise: unexplained
     d = decide({"creep": 20.0}, 30.0, 30.0, s, {"creep": 1})
     assert d["cause"] == "unexplained" and d["explained_share"] == pytest.approx(10 / 29)
+    # from 1.5 σ² up to 3 σ² above the noise (a quiet sensor's class misfit), less than half of it: nothing
+    d = decide({"drift": 2.5, "creep": 2.55}, 3.0, 3.0, s, {"drift": 1, "creep": 3})
+    assert d["cause"] == "none" and d["not_most_of_misfit"] == ("drift", "creep") and not any(d["significant"].values())
+    assert d["explained_share"] == pytest.approx(0.25) and "25 % of the 2 σ²" in d["text"]
+    assert decide({"drift": 2.1}, 2.4, 2.4, s, {"drift": 1})["cause"] == "drift"     # 21 % of 1.4 σ²
+    assert decide({"drift": 1.9}, 3.0, 3.0, s, {"drift": 1})["cause"] == "drift"     # 55 % of 2 σ²
     # the residual far above the noise and nothing significant: unexplained too
     assert decide({"creep": 30.0}, 30.0, 30.0, s, {})["cause"] == "unexplained"
     # among ties the simpler one is named first, unless the better one's advantage holds across the record

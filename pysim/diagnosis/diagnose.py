@@ -41,8 +41,11 @@ Procedure (``diagnose``):
    the noise margin, or near the noise half of what the best removes) are named with it as a set (``causes``) and an excitation
    that separates them is written (:mod:`pysim.diagnosis.excitation`).  When
    the best candidate removes less than ``UNEXPLAINED_SHARE`` of the residual
-   above the noise, or no candidate is significant while the residual stays
-   far above the noise, the verdict is ``unexplained``, with the evidence; the
+   above the noise and that is ``UNEXPLAINED_LEVEL`` σ² or more, or no
+   candidate is significant while the residual stays that far above the noise,
+   the verdict is ``unexplained``, with the evidence (from ``MOST_OF_MISFIT_LEVEL``
+   σ² up to that level, nothing is named: a share of a misfit of a few σ² is the
+   model class's own shape error as often as an effect); the
    model delivered is then the best candidate's only where a second record
    tests it (the withholding below), the plain fit otherwise.
    **Steps**: when nothing is named, the responses to steps into holds
@@ -2021,8 +2024,9 @@ _AGAINST_RATE_INDEPENDENT = "the better rate-independent model ({excess} σ² ov
 def _why_turned_down(verdict, candidates) -> str:
     """Why the causes ``decide`` turned down are not named: where the rate-independent fits
     extrapolate (its ``not_where_states_seen`` and ``not_beside_hold_levels``), what a static output
-    curvature explains as well (``not_beyond_output_curvature``) or where a stage moves
-    the input (``not_where_moved``); "" when there are none."""
+    curvature explains as well (``not_beyond_output_curvature``), where a stage moves
+    the input (``not_where_moved``) or how little of a misfit of a few σ² the best removes
+    (``not_most_of_misfit``); "" when there are none."""
     tests = (("not_where_states_seen", "removed_where_states_seen_sigma2",
               "where every operator stays in states its training blocks showed",
               "the advantage lies where the rate-independent models extrapolate operator states no other block "
@@ -2038,7 +2042,7 @@ def _why_turned_down(verdict, candidates) -> str:
               "hysteresis) explains as much: a shape outside the MPI class, not an effect",
               "the better rate-independent model with a static curvature of its output ({excess} σ² over the "
               "held-out blocks against the plain one)"))
-    parts = []
+    parts = [verdict["text"]] if verdict.get("not_most_of_misfit") else []
     for cause in verdict.get("not_where_moved") or ():
         if candidates[cause].explained_where_moved is None:
             continue          # (a structure the responses to steps chose since)

@@ -222,10 +222,11 @@ def _named_by_second_record(s: _SecondRecordScores, complexity, outranks=None) -
     # effect, a 30-operator plant fitted with ten: creep, vetoed on the steps and sines of the first
     # record, removed 0.31 of the 0.45 σ² the baseline left on band-limited noise); nor is a stage whose
     # advantage came from the weights a few samples it moved lever (not_where_moved): its model carries
-    # those weights to the second record
+    # those weights to the second record; nor a cause that took only a share of a misfit of a few σ²
+    # (not_most_of_misfit)
     vetoed_first = set().union(*(s.cv_verdict.get(key) or () for key in
                                  ("not_where_states_seen", "not_beside_hold_levels", "not_beyond_output_curvature",
-                                  "not_where_moved")))
+                                  "not_where_moved", "not_most_of_misfit")))
     if verdict["cause"] in vetoed_first and not _second_record_decisive(s, verdict):
         verdict = named_without(worse_where_fitted | vetoed_first)
     if verdict["cause"] not in EFFECTS:
