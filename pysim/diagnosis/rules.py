@@ -217,14 +217,13 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
     joins = [c for c in mse if c not in vetoed and large_enough[c]]
     ties = sorted((c for c in joins if mse[c] - mse[best] <= margin), key=lambda c: mse[c])
     share = improvement / excess if excess > 0 else 1.0
-    if excess >= UNEXPLAINED_LEVEL * s2 and share < UNEXPLAINED_SHARE:
-        return {"cause": "unexplained", "causes": ("unexplained",), "significant": significant,
-                **lost_where, "best": best,
-                "explained_share": share,
-                "text": f"the best candidate, {best}, removes only {100 * share:.0f} % of the mean-square "
-                        f"error above the noise ({excess / s2:.3g} σ²): most of the residual is outside "
-                        f"the catalogue{_OUTSIDE}"}
-    if excess >= MOST_OF_MISFIT_LEVEL * s2 and share < UNEXPLAINED_SHARE:
+    if share < UNEXPLAINED_SHARE and excess >= MOST_OF_MISFIT_LEVEL * s2:
+        removes_only = f"the best candidate, {best}, removes only {100 * share:.0f} % of the "
+        if excess >= UNEXPLAINED_LEVEL * s2:
+            return {"cause": "unexplained", "causes": ("unexplained",), "significant": significant,
+                    **lost_where, "best": best, "explained_share": share,
+                    "text": removes_only + f"mean-square error above the noise ({excess / s2:.3g} σ²): most of "
+                                           f"the residual is outside the catalogue{_OUTSIDE}"}
         # a sensor quieter than the noise the rules were measured at makes the MPI class's own misfit a
         # few σ², of which a flexible candidate takes a share (independent plants without an effect, noise
         # 0.01 % of the range: a drift removed 23 % of 1.9 σ², a delay and its look-alikes 40 % of 2.55 σ²);
@@ -234,10 +233,10 @@ def decide(mse: dict, baseline_mse: float, rate_independent_mse: float, noise_um
             significant[c] = False
         return {"cause": "none", "causes": (), "significant": significant, "best": None,
                 "explained_share": share, **lost_where, "not_most_of_misfit": tuple(named),
-                "text": f"the best candidate, {best}, removes only {100 * share:.0f} % of the {excess / s2:.3g} σ² "
-                        f"of mean-square error that the better rate-independent model leaves above the noise "
-                        f"(half is asked): a share of a misfit of a few σ² is the MPI class's own shape error "
-                        f"as often as an effect (a sensor quieter than the model class can fit)"}
+                "text": removes_only + f"{excess / s2:.3g} σ² of mean-square error that the better "
+                                       f"rate-independent model leaves above the noise (half is asked): a share of "
+                                       f"a misfit of a few σ² is the MPI class's own shape error as often as an "
+                                       f"effect (a sensor quieter than the model class can fit)"}
     winner = simplest_unless_outranked(ties, best, complexity, mse, outranks)
     causes = tuple([winner] + [c for c in ties if c != winner])
     return {"cause": winner, "causes": causes, "significant": significant, "best": best,
