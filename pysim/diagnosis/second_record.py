@@ -112,6 +112,7 @@ class _SecondRecordScores:
         """What the second record's own rate-independent fit leaves above its noise (σ²)."""
         return _rate_independent_excess(self.fitter, self.v2, self.y2, self.memory2)
 
+    @functools.cached_property
     def raised(self):
         """The first record's causes tested on the second record's own hysteresis fit (cause → the rise
         in σ², :func:`_raised_on_own_hysteresis`) when the first record's models cannot test them there;
@@ -123,10 +124,6 @@ class _SecondRecordScores:
         measures how its hysteresis part carries to a new input, not its effect (excitations seed
         380: a 2-sample delay named on a staircase raises a slow ramps record's error by 0.34 σ²,
         where the baseline and the richer model already differ by 0.50 σ²)."""
-        return self._raised
-
-    @functools.cached_property
-    def _raised(self):
         if not (self.cv_verdict.get("steps") or self.hysteresis_transfer_spread >= NOISE_FRACTION):
             return None
         return _raised_on_own_hysteresis(self.fitter, self.candidates, self.cv_verdict["causes"], self.v2, self.y2,
@@ -146,27 +143,34 @@ class _SecondRecordScores:
         a hysteresis part fitted on the first record alone may carry to that input worse by chance
         (excitations seed 380 with other noise: a 2-sample delay named on a staircase raises a slow
         ramps record's error by 0.44 σ², where the baseline and the richer model differ by 0.25 σ²)."""
-        return NOISE_FRACTION if self.raised() is not None else NOISE_FRACTION + self.hysteresis_transfer_spread
+        return NOISE_FRACTION if self.raised is not None else NOISE_FRACTION + self.hysteresis_transfer_spread
 
     @property
     def rise_text(self) -> str:
         """How the contradicting rise was measured, as a phrase after "raise the second record's error"."""
         level = f"by {self.contradiction_level:.2g} σ² or more"
-        if self.raised() is not None:
+        if self.raised is not None:
             why = ("steps showed them" if self.cv_verdict.get("steps") else
                    f"the first record's two rate-independent models predict that record "
                    f"{self.hysteresis_transfer_spread:.2g} σ² apart")
             return f"{level} with the effect put on that record's own rate-independent fit (as {why})"
-        if self.contradiction_level > NOISE_FRACTION + 0.005:
+        if self.hysteresis_transfer_spread > 0.005:          # not "0 σ² apart"
             return (f"{level} ({NOISE_FRACTION} σ² beyond the {self.hysteresis_transfer_spread:.2g} σ² by which the "
                     "first record's two rate-independent models predict it apart)")
         return level
 
     def split_contradicted(self, verdict) -> tuple:
         """``(kept, contradicted)``: ``verdict``'s causes that the second record leaves, and those that
-        raise its error by :attr:`contradiction_level` or more."""
-        return _not_contradicted(verdict, self.mse, self.ref_val, self.noise2, self.raised(),
-                                 self.contradiction_level)
+        raise its error by :attr:`contradiction_level` or more: measured on the second record's own
+        fit (:attr:`raised`), else as the rise of each cause's model over the better rate-independent
+        model's error there (``ref_val``), both fitted on the first record."""
+        level = self.contradiction_level
+        if self.raised is not None:
+            contradicted = [c for c in verdict["causes"] if self.raised.get(c, 0.0) >= level]
+        else:
+            contradicted = [c for c in verdict["causes"]
+                            if c in self.mse and self.mse[c] - self.ref_val >= level * self.noise2**2]
+        return [c for c in verdict["causes"] if c not in contradicted], contradicted
 
     def without_contradicted(self, verdict) -> tuple:
         """``verdict`` without the causes the second record contradicts (``none`` when all are), and
@@ -530,18 +534,6 @@ def _with_shape(shape: dict, validation: dict, verdict: dict) -> tuple:
                                "class, or the first record's hysteresis part on an input it never showed): every "
                                "model is scored there after the same path-only correction")
     return validation, verdict
-
-
-def _not_contradicted(cv_verdict, mse, ref_val, noise2, raised=None, level: float = NOISE_FRACTION):
-    """The first record's named causes split into those the second record leaves and those that raise
-    its error by ``level`` σ² or more (``raised``: cause → the rise in σ², measured on the second
-    record's own fit, :func:`_raised_on_own_hysteresis`; else the rise of each cause's model over the
-    better rate-independent model's ``ref_val``, both fitted on the first record)."""
-    if raised is not None:
-        contradicted = [c for c in cv_verdict["causes"] if raised.get(c, 0.0) >= level]
-    else:
-        contradicted = [c for c in cv_verdict["causes"] if c in mse and mse[c] - ref_val >= level * noise2**2]
-    return [c for c in cv_verdict["causes"] if c not in contradicted], contradicted
 
 
 def second_record_fitter(fitter: CandidateFitter, v2, y2) -> CandidateFitter | None:
