@@ -8,10 +8,11 @@ effect per actuator (``seed % 5``: none, rate_dependence, creep, delay, drift). 
 first record and, unless ``--first-record-only``, validates on the second; the third, which it never
 sees, is predicted from rest by the plain fit and the model delivered.
 
-Outcomes: as ``bench_common.named_and_outcome`` (right: the truth alone or in the set), and for a set
-also whether ``d.excitation``, played from rest on the true actuator (same plant, effect and noise)
-and diagnosed alone, names the truth (``resolved``).  An effect under 1 noise σ on the first record
-is marked below the noise: naming ``none`` there is not counted as a miss of a visible effect.
+Outcomes: as ``bench_common.named_and_outcome`` (right: the truth alone or in the set), except that a
+set is right only if ``d.excitation``, played from rest on the true actuator (same plant, effect and
+noise) and diagnosed alone, names the truth (``resolved``); otherwise ``set unresolved``.  An effect
+under 1 noise σ on the first record is marked below the noise: naming ``none`` there is not counted as a
+miss of a visible effect.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bench_diagnosis_sixth_generator.py \\
         [--records N] [--first-seed S] [--first-record-only] [--json FILE]
@@ -66,9 +67,11 @@ def evaluate(seed: int, second_record: bool = True) -> dict:
     row["why"] = str(d.why)
     if row["outcome"] == "missed" and row["size_sigma"] < 1.0:
         row["outcome"] = "below noise"
-    if len(d.causes) > 1 and d.excitation is not None:
-        row["after_excitation"] = _replay(actuator, d.excitation)
+    if len(d.causes) > 1:
+        row["after_excitation"] = "none given" if d.excitation is None else _replay(actuator, d.excitation)
         row["resolved"] = row["after_excitation"] == actuator.effect
+        if row["outcome"] == "right" and not row["resolved"]:
+            row["outcome"] = "set unresolved"     # a set is right only if its excitation names the truth
     return row
 
 
